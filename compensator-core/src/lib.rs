@@ -1,0 +1,23 @@
+//! Temperature compensation of ring-laser-gyro (RLG) bias on the gyro's readout board.
+//!
+//! Evaluates the LS-SVM regression of Yu et al., Chin. Opt. Lett. 9(5) 051201 (2011),
+//! Eq. (10) with the Gaussian kernel of Eq. (8), from a const table exported by `host-trainer`,
+//! and computes its input features recursively at 1 Hz with O(1) state.
+//!
+//! `no_std`, no heap, no panics on any input: the hot path clamps or passes the raw rate
+//! through and reports what it did in a [`Status`] bit set.
+//!
+//! * [`table`]: the exported model table and its validation.
+//! * [`lssvm`]: f32 evaluation of Eq. (10).
+//! * [`rate`]: the recursive dT/dt estimator shared by the trainer and the board.
+//! * [`compensator`]: the 1 Hz update that turns (temperature, gyro rate) into a compensated rate.
+#![cfg_attr(not(test), no_std)]
+
+pub mod compensator;
+pub mod lssvm;
+pub mod rate;
+pub mod table;
+
+pub use compensator::{Compensated, Compensator, SensorLimits, Status};
+pub use rate::{RateEstimate, RateEstimator, RateFilter};
+pub use table::{Feature, ModelRef, ModelSpec, ModelTable, TableError};

@@ -1,0 +1,148 @@
+//! The model table exported by `host-trainer` and flashed with the firmware.
+//!
+//! All fields are public so that generated source can build a table in a `const` item. The
+//! support vectors are stored already standardised; inputs are standardised on the board with
+//! the stored mean and inverse scale, exactly as the trainer did in f64.
+
+use crate::rate::RateFilter;
+
+/// One input feature of the model, computed on the board from the temperature stream.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum Feature {
+    /// Gyro temperature sensor reading T, °C.
+    TempC,
+    /// Rate of change dT/dt from the recursive estimator ([`crate::rate`]), °C/s.
+    TempRateCPerS,
+}
+
+impl Feature {
+    /// Stable name used in model files and exported tables.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Feature::TempC => "temp_c",
+            Feature::TempRateCPerS => "temp_rate_c_per_s",
+        }
+    }
+
+    /// Inverse of [`Feature::name`].
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "temp_c" => Some(Feature::TempC),
+            "temp_rate_c_per_s" => Some(Feature::TempRateCPerS),
+            _ => None,
+        }
+    }
+}
+
+/// Everything about a model except its support vectors and coefficients.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ModelSpec<const D: usize> {
+    /// What each input dimension is.
+    pub features: [Feature; D],
+    /// Per-feature mean used for standardisation, in the feature's unit.
+    pub input_mean: [f32; D],
+    /// Per-feature 1/scale used for standardisation (z = (x − mean)·inv_scale).
+    pub input_inv_scale: [f32; D],
+    /// Smallest value of each feature seen in training (raw unit): the valid range starts here.
+    pub input_lo: [f32; D],
+    /// Largest value of each feature seen in training (raw unit).
+    pub input_hi: [f32; D],
+    /// Kernel coefficient γ = 1/(2σ²) of Eq. (8), σ in standardised units.
+    pub gamma: f32,
+    /// Bias b of Eq. (10), °/h.
+    pub bias_dph: f32,
+    /// Model output at the reference condition, °/h. The compensated rate is
+    /// `raw − (f(x) − reference_dph)`: the temperature-dependent part is removed and the
+    /// output stays on the gyro's own scale (the fixed bias at the reference condition is left
+    /// for the ordinary bias calibration, as in the paper's Eq. 11).
+    pub reference_dph: f32,
+    /// The dT/dt estimator the trainer used to compute the training features.
+    pub rate_filter: RateFilter,
+}
+
+/// A complete model table: the spec plus N support vectors of dimension D.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ModelTable<const N: usize, const D: usize> {
+    /// Scaling, kernel, bias and feature definitions.
+    pub spec: ModelSpec<D>,
+    /// Standardised support vectors x_i of Eq. (10).
+    pub support: [[f32; D]; N],
+    /// Coefficients a_i of Eq. (10), °/h.
+    pub alpha_dph: [f32; N],
+}
+
+impl<const N: usize, const D: usize> ModelTable<N, D> {
+    /// A borrowed view used by the evaluator and the compensator.
+    pub const fn as_model(&self) -> ModelRef<'_, D> {
+        ModelRef { spec: &self.spec, support: &self.support, alpha_dph: &self.alpha_dph }
+    }
+}
+
+/// A borrowed model whose support-vector count is known only at run time (host tests build
+/// one from vectors; the board borrows its const [`ModelTable`]).
+#[derive(Clone, Copy, Debug)]
+pub struct ModelRef<'a, const D: usize> {
+    /// Scaling, kernel, bias and feature definitions.
+    pub spec: &'a ModelSpec<D>,
+    /// Standardised support vectors.
+    pub support: &'a [[f32; D]],
+    /// Coefficients, °/h; same length as `support`.
+    pub alpha_dph: &'a [f32],
+}
+
+/// Why a table cannot be used.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum TableError {
+    /// `support` and `alpha_dph` differ in length, or the table is empty.
+    Shape,
+    /// A stored number is NaN or infinite.
+    NonFinite,
+    /// A scale is not positive, γ is not positive, or a range has lo > hi.
+    Invalid,
+    /// The dT/dt filter gains are outside the stable region.
+    RateFilter,
+}
+
+impl core::fmt::Display for TableError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            TableError::Shape => "support vectors and coefficients differ in count, or none",
+            TableError::NonFinite => "table holds a NaN or infinite number",
+            TableError::Invalid => "table has a non-positive scale or gamma, or an empty range",
+            TableError::RateFilter => "dT/dt filter gains are outside the stable region",
+        })
+    }
+}
+
+impl core::error::Error for TableError {}
+
+impl<const D: usize> ModelRef<'_, D> {
+    /// Checks everything the evaluator relies on to stay finite.
+    pub fn validate(&self) -> Result<(), TableError> {
+        let s = self.spec;
+        if self.support.is_empty() || self.support.len() != self.alpha_dph.len() {
+            return Err(TableError::Shape);
+        }
+        let scalars = [s.gamma, s.bias_dph, s.reference_dph];
+        let all_finite = scalars.iter().all(|v| v.is_finite())
+            && self.alpha_dph.iter().all(|v| v.is_finite())
+            && self.support.iter().flatten().all(|v| v.is_finite())
+            && s.input_mean.iter().chain(&s.input_inv_scale).all(|v| v.is_finite())
+            && s.input_lo.iter().chain(&s.input_hi).all(|v| v.is_finite());
+        if !all_finite {
+            return Err(TableError::NonFinite);
+        }
+        let ranges_ok = s.input_lo.iter().zip(&s.input_hi).all(|(lo, hi)| lo <= hi);
+        if s.gamma <= 0.0 || s.input_inv_scale.iter().any(|v| *v <= 0.0) || !ranges_ok {
+            return Err(TableError::Invalid);
+        }
+        if !s.rate_filter.is_stable() {
+            return Err(TableError::RateFilter);
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,1 @@
+//! Host-side toolchain for temperature compensation of ring-laser-gyro bias.

@@ -1,0 +1,2 @@
+//! `rlg`: the command-line front end of `host-trainer`.
+fn main() {}
