@@ -1,1 +1,2 @@
 //! Host-side toolchain for temperature compensation of ring-laser-gyro bias.
+pub mod recording;
