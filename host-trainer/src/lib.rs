@@ -1,2 +1,6 @@
-//! Host-side toolchain for temperature compensation of ring-laser-gyro bias.
+//! Host-side toolchain for temperature compensation of ring-laser-gyro (RLG) bias, after
+//! Yu et al., Chin. Opt. Lett. 9(5) 051201 (2011).
+//!
+//! A library with a thin CLI (`rlg`) on top: everything the CLI does is callable from Rust.
+
 pub mod recording;
