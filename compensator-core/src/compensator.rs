@@ -180,7 +180,11 @@ impl<'a, const D: usize> Compensator<'a, D> {
             if gyro_dph.is_finite() {
                 self.last_good_dph = gyro_dph;
             }
-            return Compensated { rate_dph, correction_dph: 0.0, status };
+            return Compensated {
+                rate_dph,
+                correction_dph: 0.0,
+                status,
+            };
         }
 
         let mut status = Status::OK;
@@ -197,11 +201,11 @@ impl<'a, const D: usize> Compensator<'a, D> {
             }
             let mut x = self.features(temp_c, &est);
             let s = self.model.spec;
-            for d in 0..D {
+            for ((v, lo), hi) in x.iter_mut().zip(s.input_lo).zip(s.input_hi) {
                 // Written so that a NaN could never pass (it cannot reach here anyway).
-                if !(x[d] >= s.input_lo[d] && x[d] <= s.input_hi[d]) {
+                if !(*v >= lo && *v <= hi) {
                     status |= Status::OUT_OF_RANGE;
-                    x[d] = if x[d] > s.input_hi[d] { s.input_hi[d] } else { s.input_lo[d] };
+                    *v = if *v > hi { hi } else { lo };
                 }
             }
             Some(self.model.predict_dph(&x) - s.reference_dph)
@@ -224,6 +228,171 @@ impl<'a, const D: usize> Compensator<'a, D> {
         if gyro_ok {
             self.last_good_dph = rate_dph;
         }
-        Compensated { rate_dph, correction_dph, status }
+        Compensated {
+            rate_dph,
+            correction_dph,
+            status,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rate::RateFilter;
+    use crate::table::{ModelSpec, ModelTable};
+    use proptest::prelude::*;
+
+    /// A 2-input model whose correction is 0.01·z_T at the support vector: simple enough to
+    /// reason about, real enough to exercise clamping.
+    const TABLE: ModelTable<3, 2> = ModelTable {
+        spec: ModelSpec {
+            features: [Feature::TempC, Feature::TempRateCPerS],
+            input_mean: [40.0, 0.0],
+            input_inv_scale: [0.05, 50.0],
+            input_lo: [10.0, -0.02],
+            input_hi: [65.0, 0.02],
+            gamma: 0.5,
+            bias_dph: -7.1,
+            reference_dph: -7.1,
+            rate_filter: RateFilter {
+                alpha: 0.0327,
+                beta: 0.000_272,
+                dt_s: 1.0,
+                warmup_samples: 300,
+            },
+        },
+        support: [[-1.0, 0.0], [0.0, 0.0], [1.0, 0.5]],
+        alpha_dph: [-0.01, 0.002, 0.01],
+    };
+
+    fn comp() -> Compensator<'static, 2> {
+        Compensator::new(TABLE.as_model(), SensorLimits::DEFAULT)
+    }
+
+    #[test]
+    fn compensates_with_the_model_after_warm_up() {
+        let mut c = comp();
+        let mut out = c.update(30.0, -7.0);
+        assert!(out.status.contains(Status::WARMING_UP));
+        for _ in 0..400 {
+            out = c.update(30.0, -7.0);
+        }
+        assert!(out.status.is_ok(), "{:?}", out.status);
+        let model = TABLE.as_model();
+        let want = model.predict_dph(&[30.0, 0.0]) - TABLE.spec.reference_dph;
+        assert!((out.correction_dph - want).abs() < 1e-7);
+        assert_eq!(out.rate_dph, -7.0 - out.correction_dph);
+    }
+
+    #[test]
+    fn temperature_fault_passes_raw_rate_and_recovers() {
+        let mut c = comp();
+        for _ in 0..400 {
+            c.update(30.0, -7.0);
+        }
+        for bad in [f32::NAN, f32::INFINITY, -273.0, 850.0, 60.0] {
+            let out = c.update(bad, -7.05);
+            assert!(
+                out.status.contains(Status::TEMP_FAULT),
+                "{bad}: {:?}",
+                out.status
+            );
+            assert_eq!(out.rate_dph, -7.05);
+            assert_eq!(out.correction_dph, 0.0);
+        }
+        let out = c.update(30.0, -7.0);
+        assert!(out.status.is_ok(), "{:?}", out.status);
+    }
+
+    #[test]
+    fn long_fault_restarts_the_estimator() {
+        let mut c = comp();
+        for _ in 0..400 {
+            c.update(30.0, -7.0);
+        }
+        for _ in 0..SensorLimits::DEFAULT.max_skipped {
+            c.update(f32::NAN, -7.0);
+        }
+        // A new temperature far from the old one is accepted after the restart, and warms up.
+        let out = c.update(50.0, -7.0);
+        assert!(!out.status.contains(Status::TEMP_FAULT));
+        assert!(out.status.contains(Status::WARMING_UP));
+    }
+
+    #[test]
+    fn gyro_fault_holds_last_good_output() {
+        let mut c = comp();
+        for _ in 0..400 {
+            c.update(30.0, -7.0);
+        }
+        let good = c.update(30.0, -7.0).rate_dph;
+        for bad in [f32::NAN, f32::NEG_INFINITY, 1.0e9] {
+            let out = c.update(30.0, bad);
+            assert!(out.status.contains(Status::GYRO_FAULT));
+            assert_eq!(out.rate_dph, good);
+        }
+    }
+
+    #[test]
+    fn out_of_range_is_clamped_and_flagged() {
+        let mut c = comp();
+        for _ in 0..400 {
+            c.update(64.0, -7.0);
+        }
+        // Walk slowly (within the step limit) up to 80 °C.
+        let mut out = c.update(64.0, -7.0);
+        for k in 0..1600 {
+            out = c.update(64.0 + k as f32 * 0.01, -7.0);
+        }
+        assert!(out.status.contains(Status::OUT_OF_RANGE));
+        // dT/dt is 0.01 °C/s, inside the range, so only T is clamped.
+        let m = TABLE.as_model();
+        let want = m.predict_dph(&[65.0, 0.01]) - TABLE.spec.reference_dph;
+        assert!(
+            (out.correction_dph - want).abs() < 2e-6,
+            "{} vs {want}",
+            out.correction_dph
+        );
+    }
+
+    #[test]
+    fn invalid_table_passes_through() {
+        let mut bad = TABLE;
+        bad.alpha_dph[1] = f32::NAN;
+        let mut c = Compensator::new(bad.as_model(), SensorLimits::DEFAULT);
+        assert!(!c.table_ok());
+        let out = c.update(30.0, -7.0);
+        assert_eq!(out.status, Status::TABLE_FAULT);
+        assert_eq!(out.rate_dph, -7.0);
+        let out = c.update(30.0, f32::NAN);
+        assert!(out.rate_dph.is_finite());
+    }
+
+    fn any_f32() -> impl Strategy<Value = f32> {
+        prop_oneof![
+            4 => -100.0f32..150.0,
+            1 => proptest::num::f32::ANY,
+            1 => Just(f32::NAN),
+        ]
+    }
+
+    proptest! {
+        /// Whatever the inputs, every output is finite, and finite in-range input is never
+        /// flagged as a fault.
+        #[test]
+        fn outputs_are_always_finite(seq in proptest::collection::vec((any_f32(), any_f32()), 1..400)) {
+            let mut c = comp();
+            for (t, r) in seq {
+                let out = c.update(t, r);
+                prop_assert!(out.rate_dph.is_finite() && out.correction_dph.is_finite());
+                if !r.is_finite() {
+                    prop_assert!(out.status.contains(Status::GYRO_FAULT));
+                }
+                if !t.is_finite() {
+                    prop_assert!(out.status.contains(Status::TEMP_FAULT));
+                }
+            }
+        }
     }
 }

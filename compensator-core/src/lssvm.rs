@@ -79,7 +79,11 @@ mod tests {
     /// Two support vectors, evaluated by hand in f64.
     #[test]
     fn matches_hand_computed_value() {
-        let table = ModelTable { spec: spec(), support: [[-1.0], [1.0]], alpha_dph: [0.25, -0.5] };
+        let table = ModelTable {
+            spec: spec(),
+            support: [[-1.0], [1.0]],
+            alpha_dph: [0.25, -0.5],
+        };
         let m = table.as_model();
         m.validate().unwrap();
         // x = 12 → z = 1; distances² 4 and 0.

@@ -55,7 +55,12 @@ impl RateFilter {
     /// and the period is a positive finite number.
     pub fn is_stable(&self) -> bool {
         let (a, b) = (self.alpha, self.beta);
-        a > 0.0 && a < 2.0 && b > 0.0 && b < 4.0 - 2.0 * a && self.dt_s > 0.0 && self.dt_s.is_finite()
+        a > 0.0
+            && a < 2.0
+            && b > 0.0
+            && b < 4.0 - 2.0 * a
+            && self.dt_s > 0.0
+            && self.dt_s.is_finite()
     }
 }
 
@@ -84,7 +89,12 @@ pub struct RateEstimator {
 impl RateEstimator {
     /// A new estimator; the first sample initialises the level, with zero slope.
     pub const fn new(filter: RateFilter) -> Self {
-        RateEstimator { filter, level_c: 0.0, slope_c: 0.0, absorbed: 0 }
+        RateEstimator {
+            filter,
+            level_c: 0.0,
+            slope_c: 0.0,
+            absorbed: 0,
+        }
     }
 
     /// The gains in use.
@@ -188,11 +198,16 @@ mod tests {
         let f = filter();
         let (a, b) = (f64::from(f.alpha), f64::from(f.beta));
         let predicted = (2.0 * b * b / (a * (4.0 - 2.0 * a - b))).sqrt();
-        assert!((predicted - 1.08e-3).abs() < 0.01e-3, "documented gain {predicted}");
+        assert!(
+            (predicted - 1.08e-3).abs() < 0.01e-3,
+            "documented gain {predicted}"
+        );
         // Deterministic uniform noise from a 64-bit LCG (σ = 1/√12 per sample).
         let mut state: u64 = 0x2545_f491_4f6c_dd1d;
         let mut uniform = || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             ((state >> 40) as f32) / ((1u64 << 24) as f32) - 0.5
         };
         let mut est = RateEstimator::new(f);
@@ -206,7 +221,10 @@ mod tests {
             sum2 += r * r;
         }
         let measured = (sum2 / n as f64).sqrt() * 12f64.sqrt();
-        assert!((measured / predicted - 1.0).abs() < 0.05, "{measured} vs {predicted}");
+        assert!(
+            (measured / predicted - 1.0).abs() < 0.05,
+            "{measured} vs {predicted}"
+        );
     }
 
     #[test]
@@ -220,7 +238,11 @@ mod tests {
             est.update(35.0);
         }
         let e = est.estimate();
-        assert!(e.rate_c_per_s.abs() < 1e-6, "rate on a constant reading {}", e.rate_c_per_s);
+        assert!(
+            e.rate_c_per_s.abs() < 1e-6,
+            "rate on a constant reading {}",
+            e.rate_c_per_s
+        );
     }
 
     #[test]

@@ -76,7 +76,11 @@ pub struct ModelTable<const N: usize, const D: usize> {
 impl<const N: usize, const D: usize> ModelTable<N, D> {
     /// A borrowed view used by the evaluator and the compensator.
     pub const fn as_model(&self) -> ModelRef<'_, D> {
-        ModelRef { spec: &self.spec, support: &self.support, alpha_dph: &self.alpha_dph }
+        ModelRef {
+            spec: &self.spec,
+            support: &self.support,
+            alpha_dph: &self.alpha_dph,
+        }
     }
 }
 
@@ -131,7 +135,10 @@ impl<const D: usize> ModelRef<'_, D> {
         let all_finite = scalars.iter().all(|v| v.is_finite())
             && self.alpha_dph.iter().all(|v| v.is_finite())
             && self.support.iter().flatten().all(|v| v.is_finite())
-            && s.input_mean.iter().chain(&s.input_inv_scale).all(|v| v.is_finite())
+            && s.input_mean
+                .iter()
+                .chain(&s.input_inv_scale)
+                .all(|v| v.is_finite())
             && s.input_lo.iter().chain(&s.input_hi).all(|v| v.is_finite());
         if !all_finite {
             return Err(TableError::NonFinite);
