@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Every test of the project, from a fresh Debian machine with Rust (README: "Run every test").
+# Installs what is missing (thumb targets, qemu-system-arm) through tests/setup.sh first.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+step() { printf '\n==> %s\n' "$*"; }
+
+step "setup (targets, qemu-system-arm)"
+bash tests/setup.sh
+
+step "format"
+cargo fmt --all -- --check
+
+step "clippy, host crates and the firmware's host build"
+cargo clippy --workspace --all-targets -- -D warnings
+
+step "compensator-core builds for the board (no std can creep in)"
+cargo build -p compensator-core --target thumbv7em-none-eabihf
+cargo build -p compensator-core --target thumbv7m-none-eabi
+
+step "clippy, firmware for the board"
+cargo clippy -p firmware --target thumbv7em-none-eabihf --profile firmware -- -D warnings
+
+step "tests (host crates, firmware logic on the host, firmware in QEMU)"
+cargo test --workspace
