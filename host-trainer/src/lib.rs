@@ -3,6 +3,7 @@
 //!
 //! A library with a thin CLI (`rlg`) on top: everything the CLI does is callable from Rust.
 
-pub mod lssvm;
-pub mod metrics;
 pub mod recording;
+pub mod metrics;
+pub mod lssvm;
+pub mod features;
