@@ -7,3 +7,4 @@ pub mod recording;
 pub mod metrics;
 pub mod lssvm;
 pub mod features;
+pub mod model;
