@@ -8,3 +8,4 @@ pub mod metrics;
 pub mod lssvm;
 pub mod features;
 pub mod model;
+pub mod export;
