@@ -6,6 +6,7 @@
 //!
 //! [`Lssvm`] ties them together: train on raw features, predict on raw features.
 
+pub mod dataset;
 pub mod scaling;
 pub mod solve;
 
