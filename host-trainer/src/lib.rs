@@ -9,3 +9,4 @@ pub mod lssvm;
 pub mod features;
 pub mod model;
 pub mod export;
+pub mod cli;
