@@ -64,8 +64,11 @@ pub enum FeatureError {
 /// The dT/dt filter the trainer and the board share, for `rate_tau_s` at period `dt_s`.
 pub fn rate_filter(rate_tau_s: f64, dt_s: f64) -> Result<RateFilter, FeatureError> {
     let f = RateFilter::from_tau_s(rate_tau_s as f32, dt_s as f32);
-    if !(rate_tau_s > 0.0 && rate_tau_s.is_finite() && dt_s > 0.0 && dt_s.is_finite())
-        || !f.is_stable()
+    if !(rate_tau_s > 0.0
+        && rate_tau_s.is_finite()
+        && dt_s > 0.0
+        && dt_s.is_finite()
+        && f.is_stable())
     {
         return Err(FeatureError::Filter {
             tau_s: rate_tau_s,
@@ -211,9 +214,9 @@ mod tests {
         let time: Vec<f64> = (0..900).map(f64::from).collect();
         let s = compute(&BOTH, &temp, &time, 60.0, 1.0).unwrap();
         let mut est = RateEstimator::new(RateFilter::from_tau_s(60.0, 1.0));
-        for k in 0..900 {
-            let e = est.update(temp[k] as f32);
-            assert_eq!(s.rows[k][0], f64::from(temp[k] as f32));
+        for (k, &t) in temp.iter().enumerate() {
+            let e = est.update(t as f32);
+            assert_eq!(s.rows[k][0], f64::from(t as f32));
             assert_eq!(s.rows[k][1].to_bits(), f64::from(e.rate_c_per_s).to_bits());
             assert_eq!(
                 s.warming_up[k],
@@ -240,14 +243,11 @@ mod tests {
         let time = vec![0.0, 1.0, 2.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 100.0];
         let s = compute(&BOTH, &temp, &time, 60.0, 1.0).unwrap();
         let mut est = RateEstimator::new(RateFilter::from_tau_s(60.0, 1.0));
-        for k in 0..9 {
+        for (k, &t) in temp.iter().enumerate().take(9) {
             if k == 3 {
                 est.skip();
             }
-            assert_eq!(
-                s.rows[k][1],
-                f64::from(est.update(temp[k] as f32).rate_c_per_s)
-            );
+            assert_eq!(s.rows[k][1], f64::from(est.update(t as f32).rate_c_per_s));
         }
         // 90 missing periods exceed max_skipped: a restart, slope 0 again.
         assert_eq!(s.rows[9][1], 0.0);

@@ -51,7 +51,8 @@ impl Scaling {
             let var = x.iter().map(|r| (r[d] - m).powi(2)).sum::<f64>() / n;
             let s = var.sqrt();
             // Relative to the feature's magnitude: a spread at rounding level is no spread.
-            if !(s > 1e-12 * m.abs()) {
+            // Also catches s = 0 at m = 0 (the threshold is then 0).
+            if s <= 1e-12 * m.abs() {
                 return Err(LssvmError::ConstantFeature {
                     feature: names[d].clone(),
                     value: m,

@@ -284,7 +284,7 @@ mod tests {
         let (sigma, c) = (0.8, 200.0);
         let (sol, r) = solve_with_loo(&z, &y, sigma, c).unwrap();
         assert_eq!(sol, solve(&z, &y, sigma, c).unwrap());
-        for i in 0..z.len() {
+        for (i, r_i) in r.iter().enumerate() {
             let mut zi = z.clone();
             let mut yi = y.clone();
             let xi = zi.remove(i);
@@ -301,9 +301,9 @@ mod tests {
                 + s.bias;
             let brute = target - pred;
             assert!(
-                (r[i] - brute).abs() <= 1e-8 * brute.abs().max(1e-3),
+                (r_i - brute).abs() <= 1e-8 * brute.abs().max(1e-3),
                 "{i}: {} vs {brute}",
-                r[i]
+                r_i
             );
         }
     }
