@@ -3,7 +3,13 @@
 
 use compensator_core::Feature;
 use host_trainer::export::{table_source, to_f32, F32Model};
+use host_trainer::lssvm::dataset;
 use host_trainer::model::{ModelFile, Provenance};
+
+/// A generated table, committed and compiled into this test: the Table 1 static model.
+mod generated {
+    include!("generated/table1_model.rs");
+}
 
 fn model(dim: usize) -> ModelFile {
     let names: Vec<String> = [Feature::TempC, Feature::TempRateCPerS]
@@ -145,4 +151,84 @@ fn two_input_table_round_trips() {
 #[test]
 fn wrong_dimension_is_an_error() {
     assert!(to_f32::<1>(&model(2)).is_err());
+}
+
+/// Yu et al. 2011, Table 1 (gyro body temperature, °C; gyro output, °/h).
+const TABLE1_CSV: &str = "\
+chamber_c,temp_c,rate_dph,quad_err_1e4_dph,lssvm_err_1e4_dph\n\
+-40,-34.80,-7.0771,-13.8,-1.67\n\
+-30,-24.89,-7.0864,7.89,5.01\n\
+-20,-14.97,-7.0926,5.53,-4.91\n\
+-10,-4.94,-7.0987,8.33,-1.77\n\
+0,5.09,-7.1040,11.0,7.05\n\
+10,14.80,-7.1066,-5.56,-2.08\n\
+20,24.75,-7.1096,-11.9,-3.32\n\
+30,33.74,-7.1128,-6.15,2.65\n\
+40,45.05,-7.1150,-8.86,-5.34\n\
+50,54.07,-7.1182,9.83,7.28\n\
+60,63.59,-7.1184,3.67,-2.81\n";
+
+/// How the committed table is regenerated.
+const BLESS_COMMAND: &str = "RLG_BLESS=1 cargo test -p tests --test export_roundtrip";
+
+fn table1_model() -> ModelFile {
+    let d = dataset::table1_from_csv_text(TABLE1_CSV, "table1").unwrap();
+    let prov = Provenance::from_bytes(
+        "yu2011_table1_static.csv (rows)",
+        TABLE1_CSV.as_bytes(),
+        "ModelFile::train(table 1, sigma 1, c 1e4, rate_tau_s 60, dt_s 1)",
+    );
+    ModelFile::train(
+        &d.features,
+        &d.x,
+        &d.y_dph,
+        1.0,
+        1e4,
+        60.0,
+        1.0,
+        false,
+        prov,
+    )
+    .unwrap()
+}
+
+/// The committed generated file is what the exporter writes today (set `RLG_BLESS=1` to
+/// rewrite it).
+#[test]
+fn committed_table1_table_is_current() {
+    let src = table_source(&table1_model(), BLESS_COMMAND).unwrap();
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/generated/table1_model.rs"
+    );
+    if std::env::var_os("RLG_BLESS").is_some() {
+        // The comparison below sees the file as it was compiled; rerun without the variable.
+        std::fs::write(path, &src).unwrap();
+        return;
+    }
+    let committed = include_str!("generated/table1_model.rs");
+    assert!(
+        committed == src,
+        "tests/generated/table1_model.rs is stale; regenerate with {BLESS_COMMAND}"
+    );
+}
+
+/// The compiled const table holds exactly the converted numbers and predicts like them.
+#[test]
+fn compiled_table_equals_the_conversion() {
+    let m = table1_model();
+    let t: F32Model<1> = to_f32(&m).unwrap();
+    let g = &generated::MODEL;
+    assert_eq!(g.spec, t.spec);
+    assert_eq!(bits(&g.alpha_dph), bits(&t.alpha_dph));
+    let sv: Vec<f32> = g.support.iter().flatten().copied().collect();
+    let want: Vec<f32> = t.support.iter().flatten().copied().collect();
+    assert_eq!(bits(&sv), bits(&want));
+    for k in 0..=100 {
+        let x = [-34.0 + 0.97 * k as f32];
+        assert_eq!(
+            g.as_model().predict_dph(&x).to_bits(),
+            t.as_model().predict_dph(&x).to_bits()
+        );
+    }
 }
