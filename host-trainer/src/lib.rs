@@ -3,5 +3,10 @@
 //!
 //! A library with a thin CLI (`rlg`) on top: everything the CLI does is callable from Rust.
 
+pub mod cli;
+pub mod export;
+pub mod features;
+pub mod lssvm;
 pub mod metrics;
+pub mod model;
 pub mod recording;

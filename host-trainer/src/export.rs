@@ -1,0 +1,340 @@
+//! Export of a trained model as Rust source for the board: a `compensator_core::ModelTable`
+//! const item.
+//!
+//! [`to_f32`] is the one conversion from the f64 model file to the board's f32 numbers; the
+//! generated source prints exactly those numbers, and the host tests evaluate exactly those
+//! numbers through `compensator_core` (see `tests/tests/f32_vs_f64.rs`).
+//!
+//! f32 literals are printed with Rust's `{:?}`, the shortest text that parses back to the same
+//! f32 (`1.0`, `1e-5`, `-7.1`), so the compiled table holds the converted values bit for bit.
+//! The text depends only on the model and the command string: same model → identical bytes.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use compensator_core::{Feature, ModelRef, ModelSpec};
+
+use crate::features::{self, FeatureError};
+use crate::model::{self, ModelError, ModelFile};
+
+/// Why a model could not be exported.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ExportError {
+    /// The model file is inconsistent, or the output could not be written.
+    #[error(transparent)]
+    Model(#[from] ModelError),
+    /// The model's dT/dt filter parameters do not give a usable filter.
+    #[error(transparent)]
+    Filter(#[from] FeatureError),
+    /// The model has a number of features the board table type is not instantiated for.
+    #[error("model has {got} features; the table is being built for {want}")]
+    Dimension {
+        /// Features in the model.
+        got: usize,
+        /// Features requested.
+        want: usize,
+    },
+    /// A feature name the board does not know.
+    #[error("feature {0:?} is not a board feature")]
+    Feature(String),
+    /// A value does not fit in a finite f32.
+    #[error("{0} does not fit in a finite f32")]
+    Range(&'static str),
+    /// The converted table fails the board's own validation.
+    #[error("the converted table fails board validation: {0}")]
+    Table(compensator_core::TableError),
+}
+
+/// The board's numbers for a model: what the exported table holds, in owned form.
+#[derive(Clone, Debug, PartialEq)]
+pub struct F32Model<const D: usize> {
+    /// Scaling, kernel, bias, range, reference and dT/dt filter.
+    pub spec: ModelSpec<D>,
+    /// Standardised support vectors.
+    pub support: Vec<[f32; D]>,
+    /// Coefficients a_i, °/h.
+    pub alpha_dph: Vec<f32>,
+}
+
+impl<const D: usize> F32Model<D> {
+    /// A borrowed view for `compensator_core`'s evaluator and compensator.
+    pub fn as_model(&self) -> ModelRef<'_, D> {
+        ModelRef {
+            spec: &self.spec,
+            support: &self.support,
+            alpha_dph: &self.alpha_dph,
+        }
+    }
+}
+
+/// Nearest f32, or an error when it is not finite.
+fn f32_of(v: f64, what: &'static str) -> Result<f32, ExportError> {
+    let r = v as f32;
+    if r.is_finite() {
+        Ok(r)
+    } else {
+        Err(ExportError::Range(what))
+    }
+}
+
+/// The next f32 towards −∞ / +∞ (finite, non-zero-crossing inputs are all we need here).
+fn f32_step(v: f32, down: bool) -> f32 {
+    if v == 0.0 {
+        let tiny = f32::from_bits(1);
+        return if down { -tiny } else { tiny };
+    }
+    let bits = v.to_bits();
+    // For positive v the bit pattern grows with the value; for negative it shrinks.
+    let up_bits = if v > 0.0 { bits + 1 } else { bits - 1 };
+    let down_bits = if v > 0.0 { bits - 1 } else { bits + 1 };
+    f32::from_bits(if down { down_bits } else { up_bits })
+}
+
+/// Range ends are rounded outwards so that every trained point stays inside the f32 range.
+fn f32_outward(v: f64, down: bool, what: &'static str) -> Result<f32, ExportError> {
+    let r = f32_of(v, what)?;
+    let inside = if down {
+        f64::from(r) <= v
+    } else {
+        f64::from(r) >= v
+    };
+    if inside {
+        Ok(r)
+    } else {
+        f32_of(f64::from(f32_step(r, down)), what)
+    }
+}
+
+/// Converts the f64 model to the board's f32 table values. Fails when the model has not
+/// exactly `D` features, or when the result would fail `ModelRef::validate`.
+///
+/// Mapping: support vectors, a_i, b, mean, the range (rounded outwards) and `reference_dph`
+/// are rounded to nearest f32; `input_inv_scale` = 1/scale and γ = 1/(2σ²) are computed in f64
+/// and then rounded; the dT/dt filter is `RateFilter::from_tau_s(rate_tau_s, dt_s)` in f32.
+pub fn to_f32<const D: usize>(m: &ModelFile) -> Result<F32Model<D>, ExportError> {
+    m.validate()?;
+    let l = &m.lssvm;
+    if l.dim() != D {
+        return Err(ExportError::Dimension {
+            got: l.dim(),
+            want: D,
+        });
+    }
+    let mut feats = [Feature::TempC; D];
+    for (slot, name) in feats.iter_mut().zip(&l.features) {
+        *slot = Feature::from_name(name).ok_or_else(|| ExportError::Feature(name.clone()))?;
+    }
+    let per = |v: &[f64], what| -> Result<[f32; D], ExportError> {
+        let mut out = [0.0f32; D];
+        for (o, x) in out.iter_mut().zip(v) {
+            *o = f32_of(*x, what)?;
+        }
+        Ok(out)
+    };
+    let mut inv_scale = [0.0f32; D];
+    let mut lo = [0.0f32; D];
+    let mut hi = [0.0f32; D];
+    for d in 0..D {
+        inv_scale[d] = f32_of(1.0 / l.scaling.scale[d], "input_inv_scale")?;
+        lo[d] = f32_outward(m.input_lo[d], true, "input_lo")?;
+        hi[d] = f32_outward(m.input_hi[d], false, "input_hi")?;
+    }
+    let spec = ModelSpec {
+        features: feats,
+        input_mean: per(&l.scaling.mean, "input_mean")?,
+        input_inv_scale: inv_scale,
+        input_lo: lo,
+        input_hi: hi,
+        gamma: f32_of(1.0 / (2.0 * l.sigma * l.sigma), "gamma")?,
+        bias_dph: f32_of(l.bias_dph, "bias_dph")?,
+        reference_dph: f32_of(m.reference_dph, "reference_dph")?,
+        rate_filter: features::rate_filter(m.rate_tau_s, m.dt_s)?,
+    };
+    let support = l
+        .support
+        .iter()
+        .map(|sv| per(sv, "support"))
+        .collect::<Result<Vec<_>, _>>()?;
+    let alpha_dph = l
+        .alpha_dph
+        .iter()
+        .map(|a| f32_of(*a, "alpha_dph"))
+        .collect::<Result<Vec<_>, _>>()?;
+    let out = F32Model {
+        spec,
+        support,
+        alpha_dph,
+    };
+    out.as_model().validate().map_err(ExportError::Table)?;
+    Ok(out)
+}
+
+/// An f32 as a Rust literal that parses back to the same bits.
+pub fn f32_literal(v: f32) -> String {
+    // `{:?}` is shortest round-trip and always has a `.` or an exponent (`1.0`, `1e-5`), so it
+    // is a float literal, never an integer one.
+    format!("{v:?}")
+}
+
+fn list(v: &[f32]) -> String {
+    let items: Vec<String> = v.iter().map(|x| f32_literal(*x)).collect();
+    format!("[{}]", items.join(", "))
+}
+
+fn variant(f: Feature) -> Result<&'static str, ExportError> {
+    match f {
+        Feature::TempC => Ok("TempC"),
+        Feature::TempRateCPerS => Ok("TempRateCPerS"),
+        other => Err(ExportError::Feature(other.name().to_string())),
+    }
+}
+
+fn render<const D: usize>(m: &ModelFile, command: &str) -> Result<String, ExportError> {
+    let t = to_f32::<D>(m)?;
+    let s = &t.spec;
+    let n = t.support.len();
+    let p = &m.provenance;
+    let names: Vec<&str> = s.features.iter().map(|f| f.name()).collect();
+    let mut o = String::new();
+    // Writing to a String cannot fail.
+    let _ = writeln!(o, "// @generated by {command} — do not edit");
+    let _ = writeln!(o, "//");
+    let _ = writeln!(
+        o,
+        "// LS-SVM temperature model of RLG bias (Yu et al. 2011, Eqs. 8-10)."
+    );
+    let _ = writeln!(
+        o,
+        "// Features: {}; N = {n} support vectors.",
+        names.join(", ")
+    );
+    let _ = writeln!(
+        o,
+        "// sigma = {:?} (standardised units), c = {:?}.",
+        m.lssvm.sigma, m.lssvm.c
+    );
+    let _ = writeln!(
+        o,
+        "// dT/dt filter: tau = {:?} s at dt = {:?} s.",
+        m.rate_tau_s, m.dt_s
+    );
+    let _ = writeln!(
+        o,
+        "// Training data: {} ({} bytes, SHA-256 {}).",
+        p.data_file, p.data_len_bytes, p.data_sha256
+    );
+    let _ = writeln!(o, "// Trained by: {}", p.command);
+    let _ = writeln!(
+        o,
+        "// TRAINING errors over {} samples: RMS {:.3e} °/h, max |error| {:.3e} °/h.",
+        m.training.samples, m.training.rms_dph, m.training.max_abs_dph
+    );
+    let _ = writeln!(o);
+    let _ = writeln!(o, "/// The model table; see the header for its provenance.");
+    let _ = writeln!(
+        o,
+        "pub const MODEL: compensator_core::ModelTable<{n}, {D}> = compensator_core::ModelTable {{"
+    );
+    let _ = writeln!(o, "    spec: compensator_core::ModelSpec {{");
+    let fs: Vec<String> = s
+        .features
+        .iter()
+        .map(|f| variant(*f).map(|v| format!("compensator_core::Feature::{v}")))
+        .collect::<Result<_, _>>()?;
+    let _ = writeln!(o, "        features: [{}],", fs.join(", "));
+    let _ = writeln!(o, "        input_mean: {},", list(&s.input_mean));
+    let _ = writeln!(o, "        input_inv_scale: {},", list(&s.input_inv_scale));
+    let _ = writeln!(o, "        input_lo: {},", list(&s.input_lo));
+    let _ = writeln!(o, "        input_hi: {},", list(&s.input_hi));
+    let _ = writeln!(o, "        gamma: {},", f32_literal(s.gamma));
+    let _ = writeln!(o, "        bias_dph: {},", f32_literal(s.bias_dph));
+    let _ = writeln!(
+        o,
+        "        reference_dph: {},",
+        f32_literal(s.reference_dph)
+    );
+    let r = &s.rate_filter;
+    let _ = writeln!(o, "        rate_filter: compensator_core::RateFilter {{");
+    let _ = writeln!(o, "            alpha: {},", f32_literal(r.alpha));
+    let _ = writeln!(o, "            beta: {},", f32_literal(r.beta));
+    let _ = writeln!(o, "            dt_s: {},", f32_literal(r.dt_s));
+    let _ = writeln!(o, "            warmup_samples: {},", r.warmup_samples);
+    let _ = writeln!(o, "        }},");
+    let _ = writeln!(o, "    }},");
+    let _ = writeln!(o, "    support: [");
+    for sv in &t.support {
+        let _ = writeln!(o, "        {},", list(sv));
+    }
+    let _ = writeln!(o, "    ],");
+    let _ = writeln!(o, "    alpha_dph: [");
+    for a in &t.alpha_dph {
+        let _ = writeln!(o, "        {},", f32_literal(*a));
+    }
+    let _ = writeln!(o, "    ],");
+    let _ = writeln!(o, "}};");
+    Ok(o)
+}
+
+/// The generated Rust source of the table, with `command` named in the `@generated` header.
+pub fn table_source(m: &ModelFile, command: &str) -> Result<String, ExportError> {
+    match m.lssvm.dim() {
+        1 => render::<1>(m, command),
+        2 => render::<2>(m, command),
+        got => Err(ExportError::Dimension { got, want: 2 }),
+    }
+}
+
+/// Writes [`table_source`] to `out` atomically.
+pub fn write_table(m: &ModelFile, command: &str, out: &Path) -> Result<(), ExportError> {
+    let text = table_source(m, command)?;
+    model::write_atomic(out, text.as_bytes())?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn literals_round_trip_and_are_float_literals() {
+        let mut state: u32 = 0x9e37_79b9;
+        let mut samples = vec![
+            1.0f32,
+            1e-5,
+            -7.1,
+            0.0,
+            -0.0,
+            f32::MAX,
+            f32::MIN_POSITIVE,
+            1e20,
+            3.0e-45,
+        ];
+        for _ in 0..10_000 {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            let v = f32::from_bits(state);
+            if v.is_finite() {
+                samples.push(v);
+            }
+        }
+        for v in samples {
+            let s = f32_literal(v);
+            assert_eq!(s.parse::<f32>().unwrap().to_bits(), v.to_bits(), "{s}");
+            assert!(
+                s.contains('.') || s.contains('e'),
+                "{s} would be an integer literal"
+            );
+        }
+    }
+
+    #[test]
+    fn outward_rounding_keeps_the_value_inside() {
+        for &v in &[-34.8f64, 63.59, 0.1, -0.1, 1e-7, -1e-7] {
+            assert!(f64::from(f32_outward(v, true, "x").unwrap()) <= v);
+            assert!(f64::from(f32_outward(v, false, "x").unwrap()) >= v);
+        }
+        assert!(f32_of(1e300, "x").is_err());
+    }
+}

@@ -1,0 +1,156 @@
+//! LS-SVM regression with a Gaussian kernel, Yu et al. 2011 Eqs. (8)–(10), in f64.
+//!
+//! * [`scaling`]: per-feature standardisation fitted on the training inputs.
+//! * [`solve`]: the kernel matrix and the solution of Eq. (9) by Cholesky, a dense reference
+//!   solve, and closed-form leave-one-out residuals.
+//!
+//! [`Lssvm`] ties them together: train on raw features, predict on raw features.
+
+pub mod dataset;
+pub mod scaling;
+pub mod solve;
+
+use serde::{Deserialize, Serialize};
+
+pub use scaling::Scaling;
+pub use solve::{kernel_matrix, loo_residuals, solve, solve_dense_reference, Solution};
+
+/// Why an LS-SVM could not be trained.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum LssvmError {
+    /// No training samples.
+    #[error("no training samples")]
+    Empty,
+    /// Inputs and targets differ in count.
+    #[error("{inputs} input rows but {targets} targets")]
+    Length {
+        /// Number of input rows.
+        inputs: usize,
+        /// Number of targets.
+        targets: usize,
+    },
+    /// An input row has the wrong number of features.
+    #[error("input row {row} has {got} features, expected {want}")]
+    Dimension {
+        /// 0-based row.
+        row: usize,
+        /// Features found.
+        got: usize,
+        /// Features expected.
+        want: usize,
+    },
+    /// A NaN or infinite value in the data.
+    #[error("non-finite {what} at sample {index}{}", feature.as_ref().map(|f| format!(" (feature {f})")).unwrap_or_default())]
+    NonFinite {
+        /// "input" or "target".
+        what: &'static str,
+        /// 0-based sample.
+        index: usize,
+        /// The feature, for inputs.
+        feature: Option<String>,
+    },
+    /// A feature takes a single value over the training set, so it cannot be standardised.
+    #[error(
+        "feature {feature} is constant ({value}) over the training set; it cannot be standardised"
+    )]
+    ConstantFeature {
+        /// The feature's name.
+        feature: String,
+        /// Its (only) value, in the feature's unit.
+        value: f64,
+    },
+    /// σ or c is not a positive finite number.
+    #[error("hyper-parameter {name} = {value} must be a positive finite number")]
+    HyperParameter {
+        /// "sigma" or "c".
+        name: &'static str,
+        /// The value given.
+        value: f64,
+    },
+    /// K + I/c is not numerically positive definite (c too large for σ, or duplicated
+    /// inputs with a huge c).
+    #[error("Cholesky factorisation of K + I/c failed at pivot {pivot}: the matrix is not numerically positive definite (try a smaller c or a different sigma)")]
+    NotPositiveDefinite {
+        /// 0-based pivot where the factorisation stopped.
+        pivot: usize,
+    },
+    /// The solve produced NaN or infinity (an ill-conditioned system).
+    #[error("the solution of Eq. (9) is not finite (ill-conditioned system)")]
+    Singular,
+}
+
+/// A trained LS-SVM: Eq. (10) on standardised inputs.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Lssvm {
+    /// Feature names in input order (`compensator_core::Feature::name` strings).
+    pub features: Vec<String>,
+    /// Standardisation fitted on the training inputs.
+    pub scaling: Scaling,
+    /// Standardised support vectors x_i (every training sample: LS-SVM is not sparse).
+    pub support: Vec<Vec<f64>>,
+    /// Coefficients a_i of Eq. (10), °/h.
+    pub alpha_dph: Vec<f64>,
+    /// Bias b of Eq. (10), °/h.
+    pub bias_dph: f64,
+    /// Kernel width σ of Eq. (8), in standardised units.
+    pub sigma: f64,
+    /// Regularisation c of Eq. (9).
+    pub c: f64,
+}
+
+impl Lssvm {
+    /// Trains on raw inputs `x` (one row per sample, columns named by `features`) and
+    /// targets `y_dph` (°/h).
+    pub fn train(
+        features: &[String],
+        x: &[Vec<f64>],
+        y_dph: &[f64],
+        sigma: f64,
+        c: f64,
+    ) -> Result<Lssvm, LssvmError> {
+        if x.len() != y_dph.len() {
+            return Err(LssvmError::Length {
+                inputs: x.len(),
+                targets: y_dph.len(),
+            });
+        }
+        let scaling = Scaling::fit(features, x)?;
+        let z: Vec<Vec<f64>> = x.iter().map(|r| scaling.apply(r)).collect();
+        let sol = solve(&z, y_dph, sigma, c)?;
+        Ok(Lssvm {
+            features: features.to_vec(),
+            scaling,
+            support: z,
+            alpha_dph: sol.alpha,
+            bias_dph: sol.bias,
+            sigma,
+            c,
+        })
+    }
+
+    /// Eq. (10) at a raw feature vector, °/h.
+    pub fn predict(&self, x: &[f64]) -> f64 {
+        self.predict_standardised(&self.scaling.apply(x))
+    }
+
+    /// Eq. (10) at a standardised feature vector, °/h.
+    pub fn predict_standardised(&self, z: &[f64]) -> f64 {
+        let inv = 1.0 / (2.0 * self.sigma * self.sigma);
+        let sum: f64 = self
+            .support
+            .iter()
+            .zip(&self.alpha_dph)
+            .map(|(sv, a)| {
+                let d2: f64 = sv.iter().zip(z).map(|(s, v)| (v - s) * (v - s)).sum();
+                a * (-d2 * inv).exp()
+            })
+            .sum();
+        sum + self.bias_dph
+    }
+
+    /// Number of input features.
+    pub fn dim(&self) -> usize {
+        self.features.len()
+    }
+}
