@@ -22,6 +22,22 @@ static REPLAY: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/replay.bin"));
 /// SysTick reload: the full 24-bit range, so one update never wraps more than once.
 const SYST_RELOAD: u32 = 0x00ff_ffff;
 
+/// Loop count of the SysTick calibration: `asm::delay(n)` runs n + 1 iterations of a
+/// two-instruction loop, 2·(n + 1) instructions.
+const CALIBRATION_LOOPS: u32 = 20_000;
+
+/// Build-time fault injection for the exit-path test (`RLG_FW_FAULT=panic|hardfault`);
+/// unset in every normal build.
+const INJECT_FAULT: Option<&str> = option_env!("RLG_FW_FAULT");
+
+/// `f`'s result and the SysTick ticks it took (SysTick counts down).
+fn timed<T>(f: impl FnOnce() -> T) -> (T, u32) {
+    let t0 = SYST::get_current();
+    let value = f();
+    let t1 = SYST::get_current();
+    (value, t0.wrapping_sub(t1) & SYST_RELOAD)
+}
+
 struct Stderr(HostStream);
 
 impl ByteSink for Stderr {
@@ -64,6 +80,18 @@ fn main() -> ! {
         count
     );
 
+    let ((), cal) = timed(|| cortex_m::asm::delay(CALIBRATION_LOOPS));
+    defmt::info!(
+        "calibration: instructions={=u32} ticks={=u32}",
+        2 * (CALIBRATION_LOOPS + 1),
+        cal
+    );
+    match INJECT_FAULT {
+        Some("panic") => panic!("injected by RLG_FW_FAULT"),
+        Some("hardfault") => cortex_m::asm::udf(), // UsageFault, escalated to HardFault
+        _ => {}
+    }
+
     let (temp, rate) = replay::channels(data);
     let mut ctl = ControlLoop::new(&MODEL, SensorLimits::DEFAULT, temp, rate);
     if !ctl.table_ok() {
@@ -77,10 +105,8 @@ fn main() -> ! {
     let mut cost = Cost::default();
     for _ in 0..count {
         // The replay plays the role of the 1 Hz timer: no waiting between samples.
-        let t0 = SYST::get_current();
-        let record = ctl.step();
-        let t1 = SYST::get_current();
-        cost.add(t0.wrapping_sub(t1) & SYST_RELOAD); // SysTick counts down
+        let (record, t) = timed(|| ctl.step());
+        cost.add(t);
         out.record(&record);
     }
     let (_, written) = out.end();
@@ -104,10 +130,12 @@ fn main() -> ! {
         s.rate_sensor_errors
     );
     defmt::info!(
-        "cost: step ticks min={=u32} mean={=u32} max={=u32} (SysTick at the 25 MHz core clock; under -icount shift=0 one tick = 40 instructions)",
+        "cost: step ticks min={=u32} mean={=u32} max={=u32} total={=u64} calls={=u32} (SysTick at the 25 MHz core clock; under -icount shift=0 one tick = 40 instructions)",
         cost.min,
         cost.mean(),
-        cost.max
+        cost.max,
+        cost.total,
+        cost.calls
     );
     if !written {
         defmt::error!("the host did not take every sample line");
