@@ -48,7 +48,7 @@ impl Summary {
             .saturating_add(r.rate_error.is_some() as u32);
     }
 
-    /// Samples with every bit of `bits` set (0 for a combination not in [`STATUS_BITS`]).
+    /// Samples with `bit` set (0 for a value that is not one of [`STATUS_BITS`]).
     pub fn count(&self, bit: Status) -> u32 {
         STATUS_BITS
             .iter()

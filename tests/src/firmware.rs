@@ -87,12 +87,18 @@ pub enum FirmwareError {
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> FirmwareError + '_ {
-    move |source| FirmwareError::Io { path: path.display().to_string(), source }
+    move |source| FirmwareError::Io {
+        path: path.display().to_string(),
+        source,
+    }
 }
 
 /// The workspace root (parent of this crate).
 pub fn workspace_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).parent().unwrap_or(Path::new("..")).to_path_buf()
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .unwrap_or(Path::new(".."))
+        .to_path_buf()
 }
 
 /// Whether `qemu-system-arm` can be started.
@@ -131,11 +137,19 @@ pub fn build_image(replay_bin: &Path, dest: &Path) -> Result<(), FirmwareError> 
 }
 
 /// Like [`build_image`], with a fault injected after the start line.
-pub fn build_faulty_image(replay_bin: &Path, dest: &Path, fault: FaultInjection) -> Result<(), FirmwareError> {
+pub fn build_faulty_image(
+    replay_bin: &Path,
+    dest: &Path,
+    fault: FaultInjection,
+) -> Result<(), FirmwareError> {
     build(replay_bin, dest, Some(fault))
 }
 
-fn build(replay_bin: &Path, dest: &Path, fault: Option<FaultInjection>) -> Result<(), FirmwareError> {
+fn build(
+    replay_bin: &Path,
+    dest: &Path,
+    fault: Option<FaultInjection>,
+) -> Result<(), FirmwareError> {
     let _guard = BUILD_LOCK.lock().unwrap_or_else(|p| p.into_inner());
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let replay = std::path::absolute(replay_bin).map_err(io_err(replay_bin))?;
@@ -147,12 +161,23 @@ fn build(replay_bin: &Path, dest: &Path, fault: Option<FaultInjection>) -> Resul
     };
     let out = cmd
         .current_dir(workspace_root())
-        .args(["build", "-p", "firmware", "--profile", "firmware", "--target", TARGET])
+        .args([
+            "build",
+            "-p",
+            "firmware",
+            "--profile",
+            "firmware",
+            "--target",
+            TARGET,
+        ])
         .args(["--message-format", "json-render-diagnostics"])
         .env("RLG_REPLAY_BIN", &replay)
         .stdin(Stdio::null())
         .output()
-        .map_err(|source| FirmwareError::Spawn { program: "cargo".into(), source })?;
+        .map_err(|source| FirmwareError::Spawn {
+            program: "cargo".into(),
+            source,
+        })?;
     if !out.status.success() {
         return Err(FirmwareError::Build {
             status: out.status,
@@ -164,7 +189,7 @@ fn build(replay_bin: &Path, dest: &Path, fault: Option<FaultInjection>) -> Resul
         .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
         .filter(|v| v["reason"] == "compiler-artifact" && v["target"]["name"] == "firmware")
         .filter_map(|v| v["executable"].as_str().map(PathBuf::from))
-        .last()
+        .next_back()
         .ok_or(FirmwareError::NoExecutable)?;
     std::fs::copy(&exe, dest).map_err(io_err(&exe))?;
     Ok(())
@@ -217,7 +242,10 @@ pub fn run_qemu(elf: &Path, timeout: Duration) -> Result<QemuRun, FirmwareError>
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
-        .map_err(|source| FirmwareError::Spawn { program: QEMU.into(), source })?;
+        .map_err(|source| FirmwareError::Spawn {
+            program: QEMU.into(),
+            source,
+        })?;
     // Both pipes are drained on threads so that neither can fill up and stall QEMU.
     let drain = |mut r: Box<dyn Read + Send>| {
         std::thread::spawn(move || {
@@ -244,11 +272,13 @@ pub fn run_qemu(elf: &Path, timeout: Duration) -> Result<QemuRun, FirmwareError>
     let elapsed = start.elapsed();
 
     let elf_bytes = std::fs::read(elf).map_err(io_err(elf))?;
-    let log = decode_defmt(&elf_bytes, &stdout)
-        .map_err(|e| match e {
-            DefmtFailure::Table(reason) => FirmwareError::DefmtTable { path: elf.display().to_string(), reason },
-            DefmtFailure::Malformed(n) => FirmwareError::DefmtMalformed(n),
-        })?;
+    let log = decode_defmt(&elf_bytes, &stdout).map_err(|e| match e {
+        DefmtFailure::Table(reason) => FirmwareError::DefmtTable {
+            path: elf.display().to_string(),
+            reason,
+        },
+        DefmtFailure::Malformed(n) => FirmwareError::DefmtMalformed(n),
+    })?;
     let mut run = QemuRun {
         exit_code: status.code(),
         log,
@@ -278,7 +308,9 @@ fn decode_defmt(elf: &[u8], stream: &[u8]) -> Result<Vec<String>, DefmtFailure> 
         match decoder.decode() {
             Ok(frame) => log.push(frame.display(false).to_string()),
             Err(defmt_decoder::DecodeError::UnexpectedEof) => return Ok(log),
-            Err(defmt_decoder::DecodeError::Malformed) => return Err(DefmtFailure::Malformed(log.len())),
+            Err(defmt_decoder::DecodeError::Malformed) => {
+                return Err(DefmtFailure::Malformed(log.len()))
+            }
         }
     }
 }
@@ -293,7 +325,10 @@ fn hex_u32(field: Option<&str>) -> Option<u32> {
 
 fn parse_lines(text: &str, run: &mut QemuRun) -> Result<(), FirmwareError> {
     for (i, line) in text.lines().enumerate() {
-        let bad = || FirmwareError::BadLine { line: i + 1, text: line.to_owned() };
+        let bad = || FirmwareError::BadLine {
+            line: i + 1,
+            text: line.to_owned(),
+        };
         let mut f = line.split(' ');
         match f.next() {
             Some("S") => {
@@ -301,7 +336,10 @@ fn parse_lines(text: &str, run: &mut QemuRun) -> Result<(), FirmwareError> {
                 for w in &mut words {
                     *w = hex_u32(f.next()).ok_or_else(bad)?;
                 }
-                let status = f.next().filter(|s| s.len() == 2).and_then(|s| u8::from_str_radix(s, 16).ok());
+                let status = f
+                    .next()
+                    .filter(|s| s.len() == 2)
+                    .and_then(|s| u8::from_str_radix(s, 16).ok());
                 let status = status.ok_or_else(bad)?;
                 if f.next().is_some() {
                     return Err(bad());
@@ -359,7 +397,11 @@ mod tests {
         assert_eq!(f32::from_bits(r.rate_dph_bits), -7.125);
         assert_eq!(r.status, 9);
         assert_eq!(run.other_stderr, ["qemu: note"]);
-        for bad in ["S 0 1 2 3 4 5", "S 00000000 41cc0000 7fc00000 c0e40000 00000000 09 extra", "B xyz"] {
+        for bad in [
+            "S 0 1 2 3 4 5",
+            "S 00000000 41cc0000 7fc00000 c0e40000 00000000 09 extra",
+            "B xyz",
+        ] {
             assert!(parse_lines(bad, &mut empty_run()).is_err(), "{bad}");
         }
     }

@@ -60,7 +60,9 @@ pub fn encode(samples: &[ReplaySample]) -> Result<Vec<u8>, ReplayError> {
 
 /// Parses file contents back into samples.
 pub fn decode(bytes: &[u8]) -> Result<Vec<ReplaySample>, ReplayError> {
-    let header = bytes.get(..HEADER_LEN).ok_or(ReplayError::Malformed("shorter than the header"))?;
+    let header = bytes
+        .get(..HEADER_LEN)
+        .ok_or(ReplayError::Malformed("shorter than the header"))?;
     if header[..4] != MAGIC {
         return Err(ReplayError::Malformed("bad magic"));
     }
@@ -70,7 +72,9 @@ pub fn decode(bytes: &[u8]) -> Result<Vec<ReplaySample>, ReplayError> {
     let count = u32::from_le_bytes([header[8], header[9], header[10], header[11]]) as usize;
     let body = &bytes[HEADER_LEN..];
     if count.checked_mul(8) != Some(body.len()) {
-        return Err(ReplayError::Malformed("length disagrees with the sample count"));
+        return Err(ReplayError::Malformed(
+            "length disagrees with the sample count",
+        ));
     }
     Ok(body
         .chunks_exact(8)
@@ -84,7 +88,10 @@ pub fn decode(bytes: &[u8]) -> Result<Vec<ReplaySample>, ReplayError> {
 /// Writes `samples` to `path`.
 pub fn write(path: &Path, samples: &[ReplaySample]) -> Result<(), ReplayError> {
     let bytes = encode(samples)?;
-    fs::write(path, bytes).map_err(|source| ReplayError::Io { path: path.display().to_string(), source })
+    fs::write(path, bytes).map_err(|source| ReplayError::Io {
+        path: path.display().to_string(),
+        source,
+    })
 }
 
 /// SplitMix64 (Steele et al. 2014), written out so the scenario's bits cannot change with a
@@ -152,7 +159,13 @@ pub fn scenario_temp_c(k: usize) -> f64 {
             };
         }
         start += len;
-        level = if i == 1 { 65.0 } else if i == 3 { 10.0 } else { level };
+        level = if i == 1 {
+            65.0
+        } else if i == 3 {
+            10.0
+        } else {
+            level
+        };
     }
     10.0
 }
@@ -208,9 +221,16 @@ mod tests {
 
     #[test]
     fn header_layout() {
-        let bytes = encode(&[ReplaySample { temp_c: 1.0, rate_dph: -2.0 }]).unwrap();
+        let bytes = encode(&[ReplaySample {
+            temp_c: 1.0,
+            rate_dph: -2.0,
+        }])
+        .unwrap();
         // 1.0 = 0x3f800000, −2.0 = 0xc0000000 (IEEE-754 single).
-        assert_eq!(bytes, b"RLGR\x01\x00\x00\x00\x01\x00\x00\x00\x00\x00\x80\x3f\x00\x00\x00\xc0");
+        assert_eq!(
+            bytes,
+            b"RLGR\x01\x00\x00\x00\x01\x00\x00\x00\x00\x00\x80\x3f\x00\x00\x00\xc0"
+        );
     }
 
     #[test]
@@ -224,7 +244,11 @@ mod tests {
         // Quantised to 0.01 °C wherever no fault was injected.
         let q = s[1234].temp_c as f64 * 100.0;
         assert!((q - q.round()).abs() < 1e-3);
-        let mean: f64 = s.iter().filter(|x| x.rate_dph.is_finite()).map(|x| x.rate_dph as f64).sum::<f64>()
+        let mean: f64 = s
+            .iter()
+            .filter(|x| x.rate_dph.is_finite())
+            .map(|x| x.rate_dph as f64)
+            .sum::<f64>()
             / (SCENARIO_LEN - 1) as f64;
         assert!((mean - SCENARIO_BIAS_DPH).abs() < 1e-3, "mean rate {mean}");
         assert!(s[1000].temp_c.is_nan() && s[2000].rate_dph.is_nan() && s[3000].temp_c == 150.0);

@@ -36,7 +36,11 @@ fn qemu_or_skip(test: &str) -> bool {
     if firmware::qemu_available() {
         return true;
     }
-    assert!(!firmware::under_ci(), "CI is set but {} is missing: run `bash tests/setup.sh`", firmware::QEMU);
+    assert!(
+        !firmware::under_ci(),
+        "CI is set but {} is missing: run `bash tests/setup.sh`",
+        firmware::QEMU
+    );
     eprintln!(
         "\n!!! SKIPPED {test}: {} not found; run `bash tests/setup.sh` to install it !!!\n",
         firmware::QEMU
@@ -66,7 +70,11 @@ fn qemu_replay_matches_host_bit_for_bit() {
     for line in &run.other_stderr {
         println!("  qemu stderr: {line}");
     }
-    assert_eq!(run.exit_code, Some(0), "QEMU exit code (1 = panic/HardFault in the image)");
+    assert_eq!(
+        run.exit_code,
+        Some(0),
+        "QEMU exit code (1 = panic/HardFault in the image)"
+    );
 
     // Framing: every sample present, in order.
     let n = input.len() as u32;
@@ -83,14 +91,22 @@ fn qemu_replay_matches_host_bit_for_bit() {
     for (k, (s, r)) in input.iter().zip(&run.records).enumerate() {
         assert_eq!(r.index, k as u32, "record order");
         // The image saw exactly the replayed bits.
-        assert_eq!((r.temp_c_bits, r.gyro_dph_bits), (s.temp_c.to_bits(), s.rate_dph.to_bits()), "input echo {k}");
+        assert_eq!(
+            (r.temp_c_bits, r.gyro_dph_bits),
+            (s.temp_c.to_bits(), s.rate_dph.to_bits()),
+            "input echo {k}"
+        );
         let want = host.update(s.temp_c, s.rate_dph);
         for (c, (bit, _)) in counts.iter_mut().zip(BITS) {
             *c += u64::from(want.status.contains(bit));
         }
         ok += u64::from(want.status.is_ok());
         let got = (r.rate_dph_bits, r.correction_dph_bits, r.status);
-        let exp = (want.rate_dph.to_bits(), want.correction_dph.to_bits(), want.status.0);
+        let exp = (
+            want.rate_dph.to_bits(),
+            want.correction_dph.to_bits(),
+            want.status.0,
+        );
         if got != exp {
             mismatches.push(format!(
                 "sample {k}: board rate {} corr {} status {:#04x}, host rate {} corr {} status {:#04x}",
@@ -112,13 +128,25 @@ fn qemu_replay_matches_host_bit_for_bit() {
     );
 
     // The image's own summary agrees with the host's counts.
-    let summary = run.log.iter().find(|l| l.contains("summary:")).expect("summary line in the defmt log");
-    assert_eq!(log_field(summary, "samples"), Some(u64::from(n)), "{summary}");
+    let summary = run
+        .log
+        .iter()
+        .find(|l| l.contains("summary:"))
+        .expect("summary line in the defmt log");
+    assert_eq!(
+        log_field(summary, "samples"),
+        Some(u64::from(n)),
+        "{summary}"
+    );
     assert_eq!(log_field(summary, "ok"), Some(ok), "{summary}");
     for ((_, name), c) in BITS.iter().zip(counts) {
         assert_eq!(log_field(summary, name), Some(c), "{name} in {summary}");
     }
-    assert_eq!(log_field(summary, "temp_sensor_errors"), Some(0), "{summary}");
+    assert_eq!(
+        log_field(summary, "temp_sensor_errors"),
+        Some(0),
+        "{summary}"
+    );
     // The scenario must exercise every path but the table fault, or the comparison is weak.
     for ((bit, name), c) in BITS.iter().zip(counts) {
         if *bit == Status::TABLE_FAULT {
@@ -129,11 +157,25 @@ fn qemu_replay_matches_host_bit_for_bit() {
     }
     // SysTick calibration: a loop of known instruction count against the 40-per-tick claim
     // the cost figures rely on.
-    let cal = run.log.iter().find(|l| l.contains("calibration:")).expect("calibration line");
-    let (instr, ticks) = (log_field(cal, "instructions").unwrap(), log_field(cal, "ticks").unwrap());
+    let cal = run
+        .log
+        .iter()
+        .find(|l| l.contains("calibration:"))
+        .expect("calibration line");
+    let (instr, ticks) = (
+        log_field(cal, "instructions").unwrap(),
+        log_field(cal, "ticks").unwrap(),
+    );
     let per_tick = instr as f64 / ticks as f64;
-    assert!((per_tick / 40.0 - 1.0).abs() < 0.01, "{per_tick} instructions per SysTick tick: {cal}");
-    let cost = run.log.iter().find(|l| l.contains("cost:")).expect("cost line");
+    assert!(
+        (per_tick / 40.0 - 1.0).abs() < 0.01,
+        "{per_tick} instructions per SysTick tick: {cal}"
+    );
+    let cost = run
+        .log
+        .iter()
+        .find(|l| l.contains("cost:"))
+        .expect("cost line");
     let field = |k: &str| log_field(cost, k).unwrap_or_else(|| panic!("{k} in {cost}")) as f64;
     println!(
         "update cost (one step: both reads and Compensator::update): mean {:.2} ticks ≈ {:.0} \
@@ -145,8 +187,16 @@ fn qemu_replay_matches_host_bit_for_bit() {
         field("max"),
         field("max") * per_tick
     );
-    let start = run.log.iter().find(|l| l.contains("model table N=")).expect("start line");
-    assert_eq!(log_field(start, "N"), Some(model_table::MODEL.support.len() as u64), "{start}");
+    let start = run
+        .log
+        .iter()
+        .find(|l| l.contains("model table N="))
+        .expect("start line");
+    assert_eq!(
+        log_field(start, "N"),
+        Some(model_table::MODEL.support.len() as u64),
+        "{start}"
+    );
     assert_eq!(log_field(start, "D"), Some(2), "{start}");
     println!(
         "{} samples bit-identical; build {:.1} s, QEMU {:.2} s; counts ok={ok} {:?}",
@@ -172,11 +222,19 @@ fn panic_and_hardfault_exit_qemu_with_failure() {
     ] {
         let elf = dir.join(format!("qemu_fault_{fault:?}.elf"));
         firmware::build_faulty_image(&bin, &elf, fault).unwrap_or_else(|e| panic!("{e}"));
-        let run = firmware::run_qemu(&elf, QEMU_TIMEOUT).unwrap_or_else(|e| panic!("{fault:?}: {e}"));
+        let run =
+            firmware::run_qemu(&elf, QEMU_TIMEOUT).unwrap_or_else(|e| panic!("{fault:?}: {e}"));
         println!("{fault:?}: exit {:?}, log {:#?}", run.exit_code, run.log);
         assert_eq!(run.exit_code, Some(1), "{fault:?}");
-        assert!(run.log.iter().any(|l| l.contains(marker)), "{fault:?}: {:?}", run.log);
-        assert!(run.records.is_empty(), "{fault:?} struck before the first sample");
+        assert!(
+            run.log.iter().any(|l| l.contains(marker)),
+            "{fault:?}: {:?}",
+            run.log
+        );
+        assert!(
+            run.records.is_empty(),
+            "{fault:?} struck before the first sample"
+        );
     }
 }
 
@@ -190,6 +248,9 @@ fn default_replay_file_is_current() {
         std::fs::write(&path, &want).expect("write default.bin");
     }
     let have = std::fs::read(&path).expect("read firmware/replay/default.bin");
-    assert!(have == want, "firmware/replay/default.bin is stale: rerun with RLG_BLESS=1");
+    assert!(
+        have == want,
+        "firmware/replay/default.bin is stale: rerun with RLG_BLESS=1"
+    );
     assert_eq!(replay::decode(&have).expect("decode").len(), 900);
 }
