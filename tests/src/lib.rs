@@ -1,1 +1,8 @@
-//! Cross-crate tests live in `tests/tests/`.
+//! Cross-crate tests live in `tests/tests/`; this library holds what they (and the CLI's
+//! end-to-end runs) share.
+//!
+//! * [`replay`]: the firmware's replay file format (writer and reader) and the QEMU scenario.
+//! * [`firmware`]: build the board image for a replay file, run it in QEMU, decode its output.
+
+pub mod firmware;
+pub mod replay;

@@ -1,0 +1,256 @@
+//! The firmware image in QEMU reproduces the host's `Compensator` bit for bit.
+//!
+//! A deterministic scenario (a 10 → 65 → 10 °C profile at 1 °C/min with holds, quantised to
+//! 0.01 °C, a −7.1 °/h gyro with pseudo-noise, and injected NaN, out-of-range and spike
+//! faults) is compiled into the image, replayed on the emulated Cortex-M4F, and every output
+//! sample is compared with `compensator_core::Compensator` run on the host over the same f32
+//! inputs with the same model table file.
+//!
+//! Needs `qemu-system-arm` and the thumb target (`bash tests/setup.sh`). Without QEMU the test
+//! is skipped with a message, except under CI (`CI` set), where that is a failure.
+
+use std::time::{Duration, Instant};
+
+use compensator_core::{Compensator, SensorLimits, Status};
+use tests::firmware::{self, log_field};
+use tests::replay;
+
+#[allow(dead_code, missing_docs)]
+#[path = "../../firmware/src/model_table.rs"]
+mod model_table;
+
+/// QEMU needs well under a second for the scenario; this only catches a hung image.
+const QEMU_TIMEOUT: Duration = Duration::from_secs(120);
+
+/// Status bits and their names in the image's summary line.
+const BITS: [(Status, &str); 5] = [
+    (Status::WARMING_UP, "warming_up"),
+    (Status::OUT_OF_RANGE, "out_of_range"),
+    (Status::TEMP_FAULT, "temp_fault"),
+    (Status::GYRO_FAULT, "gyro_fault"),
+    (Status::TABLE_FAULT, "table_fault"),
+];
+
+/// Whether QEMU is there; if not, says so loudly, and fails under CI.
+fn qemu_or_skip(test: &str) -> bool {
+    if firmware::qemu_available() {
+        return true;
+    }
+    assert!(
+        !firmware::under_ci(),
+        "CI is set but {} is missing: run `bash tests/setup.sh`",
+        firmware::QEMU
+    );
+    eprintln!(
+        "\n!!! SKIPPED {test}: {} not found; run `bash tests/setup.sh` to install it !!!\n",
+        firmware::QEMU
+    );
+    false
+}
+
+#[test]
+fn qemu_replay_matches_host_bit_for_bit() {
+    if !qemu_or_skip("qemu_replay_matches_host_bit_for_bit") {
+        return;
+    }
+    let t_start = Instant::now();
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
+    let bin = dir.join("qemu_replay_scenario.bin");
+    let elf = dir.join("qemu_replay_firmware.elf");
+    let input = replay::scenario();
+    replay::write(&bin, &input).expect("write the replay file");
+
+    firmware::build_image(&bin, &elf).unwrap_or_else(|e| panic!("{e}"));
+    let t_built = Instant::now();
+    let run = firmware::run_qemu(&elf, QEMU_TIMEOUT).unwrap_or_else(|e| panic!("{e}"));
+    println!("firmware log ({} lines):", run.log.len());
+    for line in &run.log {
+        println!("  {line}");
+    }
+    for line in &run.other_stderr {
+        println!("  qemu stderr: {line}");
+    }
+    assert_eq!(
+        run.exit_code,
+        Some(0),
+        "QEMU exit code (1 = panic/HardFault in the image)"
+    );
+
+    // Framing: every sample present, in order.
+    let n = input.len() as u32;
+    assert_eq!(run.begin_count, Some(n), "B line");
+    assert_eq!(run.end_count, Some(n), "E line");
+    assert_eq!(run.records.len(), input.len(), "S lines");
+
+    // The host reference over the same inputs and the same table file.
+    let mut host = Compensator::new(model_table::MODEL.as_model(), SensorLimits::DEFAULT);
+    assert!(host.table_ok(), "the model table must validate");
+    let mut counts = [0u64; 5];
+    let mut ok = 0u64;
+    let mut mismatches = Vec::new();
+    for (k, (s, r)) in input.iter().zip(&run.records).enumerate() {
+        assert_eq!(r.index, k as u32, "record order");
+        // The image saw exactly the replayed bits.
+        assert_eq!(
+            (r.temp_c_bits, r.gyro_dph_bits),
+            (s.temp_c.to_bits(), s.rate_dph.to_bits()),
+            "input echo {k}"
+        );
+        let want = host.update(s.temp_c, s.rate_dph);
+        for (c, (bit, _)) in counts.iter_mut().zip(BITS) {
+            *c += u64::from(want.status.contains(bit));
+        }
+        ok += u64::from(want.status.is_ok());
+        let got = (r.rate_dph_bits, r.correction_dph_bits, r.status);
+        let exp = (
+            want.rate_dph.to_bits(),
+            want.correction_dph.to_bits(),
+            want.status.0,
+        );
+        if got != exp {
+            mismatches.push(format!(
+                "sample {k}: board rate {} corr {} status {:#04x}, host rate {} corr {} status {:#04x}",
+                f32::from_bits(got.0),
+                f32::from_bits(got.1),
+                got.2,
+                want.rate_dph,
+                want.correction_dph,
+                exp.2
+            ));
+        }
+    }
+    assert!(
+        mismatches.is_empty(),
+        "{} of {} samples differ, first: {:#?}",
+        mismatches.len(),
+        input.len(),
+        &mismatches[..mismatches.len().min(10)]
+    );
+
+    // The image's own summary agrees with the host's counts.
+    let summary = run
+        .log
+        .iter()
+        .find(|l| l.contains("summary:"))
+        .expect("summary line in the defmt log");
+    assert_eq!(
+        log_field(summary, "samples"),
+        Some(u64::from(n)),
+        "{summary}"
+    );
+    assert_eq!(log_field(summary, "ok"), Some(ok), "{summary}");
+    for ((_, name), c) in BITS.iter().zip(counts) {
+        assert_eq!(log_field(summary, name), Some(c), "{name} in {summary}");
+    }
+    assert_eq!(
+        log_field(summary, "temp_sensor_errors"),
+        Some(0),
+        "{summary}"
+    );
+    // The scenario must exercise every path but the table fault, or the comparison is weak.
+    for ((bit, name), c) in BITS.iter().zip(counts) {
+        if *bit == Status::TABLE_FAULT {
+            assert_eq!(c, 0);
+        } else {
+            assert!(c > 0, "scenario never sets {name}");
+        }
+    }
+    // SysTick calibration: a loop of known instruction count against the 40-per-tick claim
+    // the cost figures rely on.
+    let cal = run
+        .log
+        .iter()
+        .find(|l| l.contains("calibration:"))
+        .expect("calibration line");
+    let (instr, ticks) = (
+        log_field(cal, "instructions").unwrap(),
+        log_field(cal, "ticks").unwrap(),
+    );
+    let per_tick = instr as f64 / ticks as f64;
+    assert!(
+        (per_tick / 40.0 - 1.0).abs() < 0.01,
+        "{per_tick} instructions per SysTick tick: {cal}"
+    );
+    let cost = run
+        .log
+        .iter()
+        .find(|l| l.contains("cost:"))
+        .expect("cost line");
+    let field = |k: &str| log_field(cost, k).unwrap_or_else(|| panic!("{k} in {cost}")) as f64;
+    println!(
+        "update cost (one step: both reads and Compensator::update): mean {:.2} ticks ≈ {:.0} \
+         instructions, min {} ≈ {:.0}, max {} ≈ {:.0}",
+        field("total") / field("calls"),
+        field("total") / field("calls") * per_tick,
+        field("min"),
+        field("min") * per_tick,
+        field("max"),
+        field("max") * per_tick
+    );
+    let start = run
+        .log
+        .iter()
+        .find(|l| l.contains("model table N="))
+        .expect("start line");
+    assert_eq!(
+        log_field(start, "N"),
+        Some(model_table::MODEL.support.len() as u64),
+        "{start}"
+    );
+    assert_eq!(log_field(start, "D"), Some(2), "{start}");
+    println!(
+        "{} samples bit-identical; build {:.1} s, QEMU {:.2} s; counts ok={ok} {:?}",
+        n,
+        (t_built - t_start).as_secs_f64(),
+        run.elapsed.as_secs_f64(),
+        BITS.iter().map(|b| b.1).zip(counts).collect::<Vec<_>>()
+    );
+}
+
+/// A panic and a HardFault end QEMU with exit code 1 and a log line, instead of hanging.
+#[test]
+fn panic_and_hardfault_exit_qemu_with_failure() {
+    if !qemu_or_skip("panic_and_hardfault_exit_qemu_with_failure") {
+        return;
+    }
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
+    let bin = dir.join("qemu_fault_replay.bin");
+    replay::write(&bin, &replay::default_replay()).expect("write the replay file");
+    for (fault, marker) in [
+        (firmware::FaultInjection::Panic, "injected by RLG_FW_FAULT"),
+        (firmware::FaultInjection::HardFault, "HardFault at pc="),
+    ] {
+        let elf = dir.join(format!("qemu_fault_{fault:?}.elf"));
+        firmware::build_faulty_image(&bin, &elf, fault).unwrap_or_else(|e| panic!("{e}"));
+        let run =
+            firmware::run_qemu(&elf, QEMU_TIMEOUT).unwrap_or_else(|e| panic!("{fault:?}: {e}"));
+        println!("{fault:?}: exit {:?}, log {:#?}", run.exit_code, run.log);
+        assert_eq!(run.exit_code, Some(1), "{fault:?}");
+        assert!(
+            run.log.iter().any(|l| l.contains(marker)),
+            "{fault:?}: {:?}",
+            run.log
+        );
+        assert!(
+            run.records.is_empty(),
+            "{fault:?} struck before the first sample"
+        );
+    }
+}
+
+/// `firmware/replay/default.bin` is what [`replay::default_replay`] writes; regenerate it with
+/// `RLG_BLESS=1 cargo test -p tests --test qemu_replay default_replay`.
+#[test]
+fn default_replay_file_is_current() {
+    let path = firmware::workspace_root().join("firmware/replay/default.bin");
+    let want = replay::encode(&replay::default_replay()).expect("encode");
+    if std::env::var_os("RLG_BLESS").is_some() {
+        std::fs::write(&path, &want).expect("write default.bin");
+    }
+    let have = std::fs::read(&path).expect("read firmware/replay/default.bin");
+    assert!(
+        have == want,
+        "firmware/replay/default.bin is stale: rerun with RLG_BLESS=1"
+    );
+    assert_eq!(replay::decode(&have).expect("decode").len(), 900);
+}
