@@ -3,5 +3,6 @@
 //!
 //! A library with a thin CLI (`rlg`) on top: everything the CLI does is callable from Rust.
 
-pub mod recording;
 pub mod metrics;
+pub mod physics;
+pub mod recording;
