@@ -7,7 +7,9 @@ pub fn block_means(x: &[f64], window: usize) -> Vec<f64> {
     if window == 0 {
         return Vec::new();
     }
-    x.chunks_exact(window).map(|c| c.iter().sum::<f64>() / window as f64).collect()
+    x.chunks_exact(window)
+        .map(|c| c.iter().sum::<f64>() / window as f64)
+        .collect()
 }
 
 /// Bias stability, in the unit of `rate`: the sample standard deviation (n − 1) of the
@@ -60,8 +62,14 @@ mod tests {
         let mut s: u64 = 7;
         let x: Vec<f64> = (0..1_000_000)
             .map(|_| {
-                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                if s >> 63 == 1 { 1.0 } else { -1.0 }
+                s = s
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                if s >> 63 == 1 {
+                    1.0
+                } else {
+                    -1.0
+                }
             })
             .collect();
         let b = bias_stability_dph(&x, 100).unwrap();
