@@ -6,3 +6,4 @@
 pub mod metrics;
 pub mod physics;
 pub mod recording;
+pub mod simulate;
