@@ -159,3 +159,6 @@ pub fn write_simulation(sim: &Simulation, csv_path: &Path) -> Result<(), Recordi
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+mod calibration_tests;
