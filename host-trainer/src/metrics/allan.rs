@@ -36,7 +36,7 @@ pub fn overlapping_adev(rate: &[f64], dt_s: f64, ms: &[usize]) -> Vec<AdevPoint>
     // Angle relative to the mean rate: removing the mean leaves the differences unchanged
     // and keeps θ small, so the second differences do not lose digits.
     let n = rate.len();
-    if n == 0 || !(dt_s > 0.0) {
+    if n == 0 || dt_s.is_nan() || dt_s <= 0.0 {
         return Vec::new();
     }
     let mean = rate.iter().sum::<f64>() / n as f64;

@@ -327,20 +327,14 @@ impl TermStep {
                     t_on_s,
                 },
                 _,
-            ) => {
-                if d.t_s >= *t_on_s {
-                    amplitude_dph * (-(d.t_s - t_on_s) / tau_s).exp()
-                } else {
-                    0.0
-                }
-            }
-            (Term::ModeHop { step_dph, .. }, State::Relay(r)) => {
-                if r.step(d.temp_c) {
-                    *step_dph
-                } else {
-                    0.0
-                }
-            }
+            ) => match d.t_s >= *t_on_s {
+                true => amplitude_dph * (-(d.t_s - t_on_s) / tau_s).exp(),
+                false => 0.0,
+            },
+            (Term::ModeHop { step_dph, .. }, State::Relay(r)) => match r.step(d.temp_c) {
+                true => *step_dph,
+                false => 0.0,
+            },
             (
                 Term::Backscatter {
                     period_c,

@@ -88,8 +88,13 @@ pub fn simulate(scenario: &Scenario, seed: u64) -> Result<Simulation, ScenarioEr
     for i in 0..n {
         let t = (n_off as usize + i) as f64 * dt;
         let sp = scenario::setpoint_at(&pieces, scenario.start_c, t);
-        // The first recorded sample is the power-on instant: the thermal state as it was.
-        let th = thermal.step(sp, i > 0, if i == 0 { 0.0 } else { dt });
+        // The first recorded sample is the power-on instant: the thermal state as it was,
+        // before self-heating starts.
+        let th = if i == 0 {
+            thermal.current(false)
+        } else {
+            thermal.step(sp, true, dt)
+        };
         let d = Drive {
             t_s: t,
             temp_c: th.body_c,

@@ -76,7 +76,7 @@ fn one() -> f64 {
 #[non_exhaustive]
 pub enum ScenarioError {
     /// The file could not be read.
-    #[error("{path}: {source}")]
+    #[error("{path}: cannot read the scenario")]
     Io {
         /// The file.
         path: String,
@@ -84,7 +84,7 @@ pub enum ScenarioError {
         source: std::io::Error,
     },
     /// The TOML does not describe a scenario.
-    #[error("{path}: {source}")]
+    #[error("{path}: not a valid scenario")]
     Parse {
         /// The file.
         path: String,
@@ -132,7 +132,7 @@ impl Scenario {
                 self.sample_period_s
             ));
         }
-        if !(self.power_on_s >= 0.0 && self.power_on_s.is_finite()) || !self.start_c.is_finite() {
+        if !(self.power_on_s >= 0.0 && self.power_on_s.is_finite() && self.start_c.is_finite()) {
             return bad("power_on_s must be ≥ 0 and start_c finite".into());
         }
         if let Err(m) = self.thermal.validate() {

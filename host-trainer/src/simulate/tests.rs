@@ -152,3 +152,54 @@ fn scenario_rejects_bad_values() {
     }];
     assert!(s.validate().is_err());
 }
+
+/// Recording starts at power-on; before it the body follows the air with no self-heating,
+/// after it the body settles at air + self-heating (ground truth of the thermal model).
+#[test]
+fn power_on_delay_and_self_heating() {
+    let mut s = noise_only(NoiseParams::default(), 3600.0 + 20_000.0);
+    s.power_on_s = 3600.0;
+    s.thermal = ThermalParams {
+        air_tau_s: 200.0,
+        body_tau_s: 600.0,
+        self_heating_c: 4.0,
+        self_heating_per_c: -0.01,
+    };
+    s.profile = vec![Segment::Soak {
+        setpoint_c: 30.0,
+        duration_s: 1e5,
+    }];
+    let sim = simulate(&s, 1).unwrap();
+    let r = &sim.recording;
+    assert_eq!(r.time_s[0], 3600.0);
+    assert!((r.chamber_c.as_ref().unwrap()[0] - 30.0).abs() < 1e-5);
+    // Cascaded lags τ₁ = 200 s, τ₂ = 600 s after a 10 °C step: the remaining fraction is
+    // (τ₂e^{−t/τ₂} − τ₁e^{−t/τ₁})/(τ₂ − τ₁) at t = 3600 s.
+    let left = (600.0 * (-6.0f64).exp() - 200.0 * (-18.0f64).exp()) / 400.0;
+    let b0 = sim.truth.body_c[0];
+    assert!((b0 - (30.0 - 10.0 * left)).abs() < 1e-4, "{b0}");
+    let last = *sim.truth.body_c.last().unwrap();
+    assert!((last - (30.0 + 4.0 - 0.3)).abs() < 1e-6, "{last}");
+}
+
+#[test]
+fn writes_recording_and_truth_sidecar() {
+    let s = noise_only(
+        NoiseParams {
+            arw_dph_rt_h: 1e-3,
+            ..Default::default()
+        },
+        100.0,
+    );
+    let sim = simulate(&s, 4).unwrap();
+    let dir = std::env::temp_dir().join(format!("rlg-sim-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("run.csv");
+    write_simulation(&sim, &p).unwrap();
+    assert_eq!(truth_path(&p), dir.join("run.truth.json"));
+    let back = Recording::read_csv(&p).unwrap();
+    assert_eq!(back.len(), 101);
+    let truth: Truth = serde_json::from_slice(&std::fs::read(truth_path(&p)).unwrap()).unwrap();
+    assert_eq!(truth, sim.truth);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

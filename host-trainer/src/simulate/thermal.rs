@@ -77,6 +77,27 @@ impl Thermal {
         }
     }
 
+    /// The present state without advancing, the gyro powered when `on`.
+    pub fn current(&self, on: bool) -> ThermalSample {
+        let air = self.air.y;
+        let heat = if on {
+            self.params.self_heating_at(air)
+        } else {
+            0.0
+        };
+        let body = self.body.y;
+        let d = if self.params.body_tau_s > 0.0 {
+            (air + heat - body) / self.params.body_tau_s
+        } else {
+            0.0
+        };
+        ThermalSample {
+            air_c: air,
+            body_c: body,
+            dbody_c_per_s: d,
+        }
+    }
+
     /// Advances by `dt_s` to setpoint `setpoint_c`, the gyro powered when `on`.
     pub fn step(&mut self, setpoint_c: f64, on: bool, dt_s: f64) -> ThermalSample {
         let air = self.air.step(setpoint_c, dt_s);
