@@ -475,3 +475,22 @@ mod tests {
         assert!(e.contains("rate_dph"), "{e}");
     }
 }
+
+#[cfg(test)]
+mod fuzz {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// Any text, however malformed, gives a recording or an error — never a panic — and
+        /// an accepted recording satisfies the format's invariants.
+        #[test]
+        fn parse_never_panics(text in "(time_s,rate_dph,temp_c\n)?(time_s|rate_dph|temp_c|chamber_c|x|#|,|-?[0-9.e]{0,5}|NaN|\n){0,40}") {
+            if let Ok(r) = Recording::parse_csv(&text, "fuzz.csv") {
+                prop_assert!(!r.is_empty());
+                prop_assert!(r.time_s.windows(2).all(|w| w[0] < w[1]));
+                prop_assert!(r.rate_dph.iter().chain(&r.temp_c).all(|v| v.is_finite()));
+            }
+        }
+    }
+}

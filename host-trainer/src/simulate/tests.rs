@@ -203,3 +203,28 @@ fn writes_recording_and_truth_sidecar() {
     assert_eq!(truth, sim.truth);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A heteroscedastic term scales only the white noise: at 50 °C above its reference with
+/// k = 0.75 the white σ is (1 + 0.75·(50/30)²) = 3.083 times the configured one.
+#[test]
+fn heteroscedastic_term_scales_white_noise() {
+    let arw = 1e-3;
+    let mut s = noise_only(
+        NoiseParams {
+            arw_dph_rt_h: arw,
+            ..Default::default()
+        },
+        50_000.0,
+    );
+    s.start_c = 70.0;
+    s.terms = vec![crate::physics::Term::Heteroscedastic {
+        k: 0.75,
+        ref_c: 20.0,
+    }];
+    let r = simulate(&s, 9).unwrap().recording.rate_dph;
+    let n = r.len() as f64;
+    let mean = r.iter().sum::<f64>() / n;
+    let sd = (r.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    let expect = arw * 60.0 * (1.0 + 0.75 * (50.0f64 / 30.0).powi(2));
+    assert!((sd / expect - 1.0).abs() < 0.02, "{sd} vs {expect}");
+}
