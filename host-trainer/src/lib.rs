@@ -9,4 +9,6 @@ pub mod features;
 pub mod lssvm;
 pub mod metrics;
 pub mod model;
+pub mod physics;
 pub mod recording;
+pub mod simulate;

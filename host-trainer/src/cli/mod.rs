@@ -1,6 +1,7 @@
 //! The `rlg` command line: argument parsing and printing on top of the library.
 
 pub mod export;
+pub mod simulate;
 pub mod train;
 
 use clap::{Parser, Subcommand};
@@ -21,6 +22,8 @@ pub enum Command {
     Train(train::TrainArgs),
     /// Write a model file as a Rust const table for the board.
     Export(export::ExportArgs),
+    /// Simulate a thermal-chamber experiment: writes the recording and `<stem>.truth.json`.
+    Simulate(simulate::SimulateArgs),
 }
 
 impl Cli {
@@ -29,6 +32,7 @@ impl Cli {
         match self.command {
             Command::Train(a) => train::run(&a, command_line),
             Command::Export(a) => export::run(&a, command_line),
+            Command::Simulate(a) => simulate::run(&a),
         }
     }
 }

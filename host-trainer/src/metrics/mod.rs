@@ -1,5 +1,6 @@
 //! Figures of merit of a rate series, as a gyro test lab reports them.
 
+pub mod allan;
 pub mod stability;
 
 pub use stability::{bias_stability_dph, block_means, max_abs, rms};

@@ -1,0 +1,393 @@
+//! The shared library of RLG physics terms: one definition of each effect, used by the
+//! simulator and computable from a driving series (t, T_c, dT_c/dt) for residual fitting.
+//!
+//! Each [`Term`] has a stable snake_case name (its `kind` in TOML/JSON) and parameters with
+//! units. A term plays one of three [`Role`]s: it adds to the bias (°/h), it transforms the
+//! temperature-sensor reading (°C), or it scales the white-noise σ. Stateful terms (lags, play
+//! operator, relay) run as a [`TermStep`]; [`contribution`] runs one over whole series.
+
+pub mod hysteresis;
+pub mod lag;
+
+use serde::{Deserialize, Serialize};
+
+pub use hysteresis::{Play, Relay};
+pub use lag::FirstOrderLag;
+
+/// Earth rotation rate, °/h (7.292115e-5 rad/s, WGS-84).
+pub const EARTH_RATE_DPH: f64 = 7.292_115e-5 * 180.0 / std::f64::consts::PI * 3600.0;
+
+/// Direction of the gyro's input axis along the local vertical.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Axis {
+    /// Axis points up: the gyro senses +Ω_e·sin(latitude).
+    Up,
+    /// Axis points down: −Ω_e·sin(latitude). At 28.2 °N (Changsha, where the paper's gyro
+    /// was tested) this is −7.108 °/h, the level of the paper's Table 1.
+    #[default]
+    Down,
+}
+
+/// One physics term with its parameters.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Term {
+    /// Constant ±Ω_e·sin(latitude), °/h.
+    EarthRate {
+        /// Latitude, degrees (north positive).
+        latitude_deg: f64,
+        /// Axis direction along the vertical.
+        #[serde(default)]
+        axis: Axis,
+    },
+    /// Σ c_k·((T_c − center)/scale)^k, °/h.
+    StaticPoly {
+        /// Expansion centre, °C.
+        #[serde(default)]
+        center_c: f64,
+        /// Scale of the normalised temperature, °C.
+        #[serde(default = "one")]
+        scale_c: f64,
+        /// Coefficients c_0, c_1, …, °/h each.
+        coeffs_dph: Vec<f64>,
+    },
+    /// Eq. (11)-style terms in Ṫ = dT_c/dt (°C/s): linear·Ṫ + cubic·Ṫ³ + temp_linear·T_c·Ṫ.
+    RateTerms {
+        /// °/h per (°C/s).
+        #[serde(default)]
+        linear: f64,
+        /// °/h per (°C/s)³.
+        #[serde(default)]
+        cubic: f64,
+        /// °/h per (°C·°C/s).
+        #[serde(default)]
+        temp_linear: f64,
+    },
+    /// Sensor lags the body: τ·dT_s/dt = T_c − T_s.
+    SensorLag {
+        /// Time constant, s.
+        tau_s: f64,
+    },
+    /// Thermal-gradient bias: gain·G with τ·dG/dt = −G + dT_c/dt.
+    GradientLag {
+        /// Time constant, s.
+        tau_s: f64,
+        /// °/h per (°C/s).
+        gain: f64,
+    },
+    /// height·(T_c − p)/(w/2), p the play operator of width w on T_c.
+    Hysteresis {
+        /// Full width of the play, °C.
+        width_c: f64,
+        /// Half the gap between branches, °/h.
+        height_dph: f64,
+    },
+    /// amplitude·exp(−(t − t_on)/τ) from power-on on (0 before).
+    Warmup {
+        /// °/h at power-on.
+        amplitude_dph: f64,
+        /// Time constant, s.
+        tau_s: f64,
+        /// Power-on time, s.
+        #[serde(default)]
+        t_on_s: f64,
+    },
+    /// Relay: +step when T_c rises above temp_c, removed when it falls below temp_c − hysteresis_c.
+    ModeHop {
+        /// Upper switching temperature, °C.
+        temp_c: f64,
+        /// Bias step, °/h.
+        step_dph: f64,
+        /// Switching hysteresis, °C.
+        hysteresis_c: f64,
+    },
+    /// amplitude·sin(2π·T_c/period + phase): lock-in/backscatter ripple with cavity length.
+    Backscatter {
+        /// Period in temperature, °C.
+        period_c: f64,
+        /// °/h.
+        amplitude_dph: f64,
+        /// rad.
+        #[serde(default)]
+        phase_rad: f64,
+    },
+    /// amplitude·sin(2π·t/period + phase), only inside `windows_s` when any are given.
+    Periodic {
+        /// Period, s.
+        period_s: f64,
+        /// °/h.
+        amplitude_dph: f64,
+        /// rad.
+        #[serde(default)]
+        phase_rad: f64,
+        /// Active time windows [start, end), s; empty: always active.
+        #[serde(default)]
+        windows_s: Vec<[f64; 2]>,
+    },
+    /// Linear drift rate·t/86400, °/h.
+    Aging {
+        /// °/h per day.
+        rate_dph_per_day: f64,
+    },
+    /// White-noise σ multiplier 1 + k·((T_c − ref)/30)².
+    Heteroscedastic {
+        /// Dimensionless.
+        k: f64,
+        /// Temperature of least noise, °C.
+        #[serde(default = "twenty")]
+        ref_c: f64,
+    },
+    /// The sensor reading is rounded to a multiple of step_c.
+    TempQuantization {
+        /// Quantum, °C.
+        step_c: f64,
+    },
+}
+
+fn one() -> f64 {
+    1.0
+}
+fn twenty() -> f64 {
+    20.0
+}
+
+/// What a term acts on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Role {
+    /// Adds to the gyro bias, °/h.
+    Bias,
+    /// Transforms the temperature-sensor reading, °C.
+    Sensor,
+    /// Multiplies the white-noise σ.
+    NoiseScale,
+}
+
+/// The driving quantities at one sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Drive {
+    /// Time, s.
+    pub t_s: f64,
+    /// True body/cavity temperature T_c, °C.
+    pub temp_c: f64,
+    /// dT_c/dt, °C/s.
+    pub dtemp_c_per_s: f64,
+}
+
+impl Term {
+    /// Stable name (the `kind` tag).
+    pub fn name(&self) -> &'static str {
+        match self {
+            Term::EarthRate { .. } => "earth_rate",
+            Term::StaticPoly { .. } => "static_poly",
+            Term::RateTerms { .. } => "rate_terms",
+            Term::SensorLag { .. } => "sensor_lag",
+            Term::GradientLag { .. } => "gradient_lag",
+            Term::Hysteresis { .. } => "hysteresis",
+            Term::Warmup { .. } => "warmup",
+            Term::ModeHop { .. } => "mode_hop",
+            Term::Backscatter { .. } => "backscatter",
+            Term::Periodic { .. } => "periodic",
+            Term::Aging { .. } => "aging",
+            Term::Heteroscedastic { .. } => "heteroscedastic",
+            Term::TempQuantization { .. } => "temp_quantization",
+        }
+    }
+
+    /// What the term acts on.
+    pub fn role(&self) -> Role {
+        match self {
+            Term::SensorLag { .. } | Term::TempQuantization { .. } => Role::Sensor,
+            Term::Heteroscedastic { .. } => Role::NoiseScale,
+            _ => Role::Bias,
+        }
+    }
+
+    /// Checks parameters that would make the term meaningless (a zero period, a negative
+    /// time constant, a non-finite value); the message names the parameter.
+    pub fn validate(&self) -> Result<(), String> {
+        let pos = |name: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{}: `{name}` must be > 0, got {v}", self.name()))
+            }
+        };
+        let nonneg = |name: &str, v: f64| {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{}: `{name}` must be ≥ 0, got {v}", self.name()))
+            }
+        };
+        match self {
+            Term::StaticPoly { scale_c, .. } => pos("scale_c", *scale_c),
+            Term::SensorLag { tau_s } => nonneg("tau_s", *tau_s),
+            Term::GradientLag { tau_s, .. } => nonneg("tau_s", *tau_s),
+            Term::Hysteresis { width_c, .. } => pos("width_c", *width_c),
+            Term::Warmup { tau_s, .. } => pos("tau_s", *tau_s),
+            Term::ModeHop { hysteresis_c, .. } => nonneg("hysteresis_c", *hysteresis_c),
+            Term::Backscatter { period_c, .. } => pos("period_c", *period_c),
+            Term::Periodic { period_s, .. } => pos("period_s", *period_s),
+            Term::TempQuantization { step_c } => pos("step_c", *step_c),
+            _ => Ok(()),
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+enum State {
+    None,
+    Lag(FirstOrderLag),
+    Play(Play),
+    Relay(Relay),
+}
+
+/// A term with its running state; step it once per sample, in time order.
+#[derive(Clone, Debug)]
+pub struct TermStep {
+    term: Term,
+    state: State,
+    t_prev_s: Option<f64>,
+}
+
+impl TermStep {
+    /// Starts the term at rest at the first sample `d0` (lags settled, play centred).
+    pub fn new(term: &Term, d0: &Drive) -> Self {
+        let state = match term {
+            Term::SensorLag { tau_s } => State::Lag(FirstOrderLag::new(*tau_s, d0.temp_c)),
+            Term::GradientLag { tau_s, .. } => {
+                State::Lag(FirstOrderLag::new(*tau_s, d0.dtemp_c_per_s))
+            }
+            Term::Hysteresis { width_c, .. } => State::Play(Play::new(*width_c, d0.temp_c)),
+            Term::ModeHop {
+                temp_c,
+                hysteresis_c,
+                ..
+            } => State::Relay(Relay::new(*temp_c, temp_c - hysteresis_c, d0.temp_c)),
+            _ => State::None,
+        };
+        Self {
+            term: term.clone(),
+            state,
+            t_prev_s: None,
+        }
+    }
+
+    /// The term.
+    pub fn term(&self) -> &Term {
+        &self.term
+    }
+
+    /// Advances to sample `d`. Returns, by [`Role`]: the bias contribution (°/h); the new
+    /// sensor reading given the reading `sensor_in_c` so far (°C); or the σ multiplier.
+    pub fn step(&mut self, d: &Drive, sensor_in_c: f64) -> f64 {
+        let dt = self.t_prev_s.map_or(0.0, |t| d.t_s - t);
+        self.t_prev_s = Some(d.t_s);
+        let tau2pi = 2.0 * std::f64::consts::PI;
+        match (&self.term, &mut self.state) {
+            (Term::EarthRate { latitude_deg, axis }, _) => {
+                let s = EARTH_RATE_DPH * latitude_deg.to_radians().sin();
+                match axis {
+                    Axis::Up => s,
+                    Axis::Down => -s,
+                }
+            }
+            (
+                Term::StaticPoly {
+                    center_c,
+                    scale_c,
+                    coeffs_dph,
+                },
+                _,
+            ) => {
+                let x = (d.temp_c - center_c) / scale_c;
+                coeffs_dph.iter().rev().fold(0.0, |acc, c| acc * x + c)
+            }
+            (
+                Term::RateTerms {
+                    linear,
+                    cubic,
+                    temp_linear,
+                },
+                _,
+            ) => {
+                let r = d.dtemp_c_per_s;
+                linear * r + cubic * r * r * r + temp_linear * d.temp_c * r
+            }
+            (Term::SensorLag { .. }, State::Lag(lag)) => lag.step(sensor_in_c, dt),
+            (Term::GradientLag { gain, .. }, State::Lag(lag)) => {
+                gain * lag.step(d.dtemp_c_per_s, dt)
+            }
+            (Term::Hysteresis { height_dph, .. }, State::Play(p)) => height_dph * p.step(d.temp_c),
+            (
+                Term::Warmup {
+                    amplitude_dph,
+                    tau_s,
+                    t_on_s,
+                },
+                _,
+            ) => match d.t_s >= *t_on_s {
+                true => amplitude_dph * (-(d.t_s - t_on_s) / tau_s).exp(),
+                false => 0.0,
+            },
+            (Term::ModeHop { step_dph, .. }, State::Relay(r)) => match r.step(d.temp_c) {
+                true => *step_dph,
+                false => 0.0,
+            },
+            (
+                Term::Backscatter {
+                    period_c,
+                    amplitude_dph,
+                    phase_rad,
+                },
+                _,
+            ) => amplitude_dph * (tau2pi * d.temp_c / period_c + phase_rad).sin(),
+            (
+                Term::Periodic {
+                    period_s,
+                    amplitude_dph,
+                    phase_rad,
+                    windows_s,
+                },
+                _,
+            ) => {
+                let active =
+                    windows_s.is_empty() || windows_s.iter().any(|w| d.t_s >= w[0] && d.t_s < w[1]);
+                if active {
+                    amplitude_dph * (tau2pi * d.t_s / period_s + phase_rad).sin()
+                } else {
+                    0.0
+                }
+            }
+            (Term::Aging { rate_dph_per_day }, _) => rate_dph_per_day * d.t_s / 86_400.0,
+            (Term::Heteroscedastic { k, ref_c }, _) => {
+                let x = (d.temp_c - ref_c) / 30.0;
+                1.0 + k * x * x
+            }
+            (Term::TempQuantization { step_c }, _) => (sensor_in_c / step_c).round() * step_c,
+            // `new` pairs every stateful term with its state; other pairings cannot occur.
+            _ => 0.0,
+        }
+    }
+}
+
+/// Runs `term` over driving series (t in s, T_c in °C, dT_c/dt in °C/s; equal lengths,
+/// shorter series truncate) and returns its output per sample: the bias contribution (°/h),
+/// the sensor reading driven by T_c alone (°C), or the σ multiplier, by [`Term::role`].
+pub fn contribution(term: &Term, t_s: &[f64], temp_c: &[f64], dtemp_c_per_s: &[f64]) -> Vec<f64> {
+    let n = t_s.len().min(temp_c.len()).min(dtemp_c_per_s.len());
+    let drive = |i: usize| Drive {
+        t_s: t_s[i],
+        temp_c: temp_c[i],
+        dtemp_c_per_s: dtemp_c_per_s[i],
+    };
+    if n == 0 {
+        return Vec::new();
+    }
+    let mut st = TermStep::new(term, &drive(0));
+    (0..n).map(|i| st.step(&drive(i), temp_c[i])).collect()
+}
+
+#[cfg(test)]
+mod tests;

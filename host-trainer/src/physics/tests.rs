@@ -1,0 +1,215 @@
+//! Each term against its closed-form behaviour.
+
+use super::*;
+
+/// A ramp T = T0 + r·t sampled at 1 Hz for `n` s.
+fn ramp(t0: f64, r: f64, n: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let t: Vec<f64> = (0..n).map(|i| i as f64).collect();
+    let temp = t.iter().map(|t| t0 + r * t).collect();
+    (t, temp, vec![r; n])
+}
+
+#[test]
+fn earth_rate_reproduces_table_1_level() {
+    let (t, temp, rate) = ramp(20.0, 0.0, 3);
+    let term = Term::EarthRate {
+        latitude_deg: 28.2,
+        axis: Axis::Down,
+    };
+    let c = contribution(&term, &t, &temp, &rate);
+    // 15.0411 °/h · sin 28.2° = 7.1075 °/h; Table 1's mean output is −7.104 °/h.
+    assert!((c[0] + 15.041_07 * 28.2f64.to_radians().sin()).abs() < 1e-4);
+    assert!((c[0] + 7.1075).abs() < 1e-3);
+    let up = Term::EarthRate {
+        latitude_deg: 28.2,
+        axis: Axis::Up,
+    };
+    assert_eq!(contribution(&up, &t, &temp, &rate)[2], -c[2]);
+}
+
+#[test]
+fn static_poly_matches_direct_evaluation() {
+    let term = Term::StaticPoly {
+        center_c: 10.0,
+        scale_c: 50.0,
+        coeffs_dph: vec![1.0, -2.0, 3.0],
+    };
+    let (t, temp, rate) = ramp(-40.0, 1.0, 100);
+    let c = contribution(&term, &t, &temp, &rate);
+    for (ci, ti) in c.iter().zip(&temp) {
+        let x = (ti - 10.0) / 50.0;
+        assert!((ci - (1.0 - 2.0 * x + 3.0 * x * x)).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn rate_terms_match_eq_11_terms() {
+    let term = Term::RateTerms {
+        linear: 2.1572,
+        cubic: -4.2769e3,
+        temp_linear: 1.9163e-5,
+    };
+    let r = 1.0 / 60.0; // 1 °C/min
+    let (t, temp, rate) = ramp(30.0, r, 2);
+    let c = contribution(&term, &t, &temp, &rate);
+    let expect = 2.1572 * r - 4.2769e3 * r.powi(3) + 1.9163e-5 * 30.0 * r;
+    assert!((c[0] - expect).abs() < 1e-12);
+}
+
+#[test]
+fn sensor_lag_on_a_ramp_lags_by_tau_times_rate() {
+    let (tau, r) = (90.0, 0.02);
+    let (t, temp, rate) = ramp(0.0, r, 2000);
+    let s = contribution(&Term::SensorLag { tau_s: tau }, &t, &temp, &rate);
+    assert!((temp[1999] - s[1999] - tau * r).abs() < 1e-9);
+}
+
+#[test]
+fn gradient_lag_settles_to_gain_times_rate() {
+    // Starting at rest (G = 0) the rate steps to r: G = r·(1 − e^{−t/τ}) after the first
+    // (ramped) interval, so the bias approaches gain·r.
+    let (tau, gain, r) = (300.0, 2.0, 0.01);
+    let t: Vec<f64> = (0..5000).map(|i| i as f64).collect();
+    let temp = vec![20.0; 5000];
+    let mut rate = vec![r; 5000];
+    rate[0] = 0.0;
+    let c = contribution(&Term::GradientLag { tau_s: tau, gain }, &t, &temp, &rate);
+    assert!((c[4999] - gain * r).abs() < 1e-8);
+    let mid = gain * r * (1.0 - tau * (1.0 - (-1.0 / tau).exp()) * (-299.0 / tau).exp());
+    assert!((c[300] - mid).abs() < 1e-12, "{} vs {mid}", c[300]);
+}
+
+#[test]
+fn hysteresis_branches_differ_by_twice_the_height() {
+    let term = Term::Hysteresis {
+        width_c: 6.0,
+        height_dph: 0.003,
+    };
+    let t: Vec<f64> = (0..201).map(|i| i as f64).collect();
+    // Up from 0 to 50 then back down to 0.
+    let temp: Vec<f64> = (0..201)
+        .map(|i| {
+            if i <= 100 {
+                0.5 * i as f64
+            } else {
+                100.0 - 0.5 * i as f64
+            }
+        })
+        .collect();
+    let c = contribution(&term, &t, &temp, &vec![0.0; 201]);
+    // 25 °C is reached at i = 50 (rising) and i = 150 (falling).
+    assert!((c[50] - c[150] - 0.006).abs() < 1e-12);
+}
+
+#[test]
+fn warmup_decays_exponentially_after_power_on() {
+    let term = Term::Warmup {
+        amplitude_dph: 0.01,
+        tau_s: 600.0,
+        t_on_s: 100.0,
+    };
+    let (t, temp, rate) = ramp(20.0, 0.0, 2000);
+    let c = contribution(&term, &t, &temp, &rate);
+    assert_eq!(c[99], 0.0);
+    assert!((c[100] - 0.01).abs() < 1e-15);
+    assert!((c[700] - 0.01 * (-1.0f64).exp()).abs() < 1e-15);
+}
+
+#[test]
+fn mode_hop_switches_at_the_two_thresholds() {
+    let term = Term::ModeHop {
+        temp_c: 40.0,
+        step_dph: 0.002,
+        hysteresis_c: 3.0,
+    };
+    let temp = [35.0, 40.0, 40.5, 38.0, 37.1, 36.9, 39.9];
+    let t: Vec<f64> = (0..temp.len()).map(|i| i as f64).collect();
+    let c = contribution(&term, &t, &temp, &[0.0; 7]);
+    assert_eq!(c, vec![0.0, 0.0, 0.002, 0.002, 0.002, 0.0, 0.0]);
+}
+
+#[test]
+fn backscatter_and_periodic_are_sinusoids() {
+    let bs = Term::Backscatter {
+        period_c: 8.0,
+        amplitude_dph: 1e-3,
+        phase_rad: 0.0,
+    };
+    let (t, temp, rate) = ramp(0.0, 1.0, 9);
+    let c = contribution(&bs, &t, &temp, &rate);
+    assert!((c[2] - 1e-3).abs() < 1e-15 && (c[6] + 1e-3).abs() < 1e-15 && c[8].abs() < 1e-15);
+    let p = Term::Periodic {
+        period_s: 4.0,
+        amplitude_dph: 2.0,
+        phase_rad: 0.0,
+        windows_s: vec![[0.0, 5.0]],
+    };
+    let c = contribution(&p, &t, &temp, &rate);
+    assert!((c[1] - 2.0).abs() < 1e-12 && (c[3] + 2.0).abs() < 1e-12);
+    assert_eq!(c[5], 0.0);
+}
+
+#[test]
+fn aging_is_linear_in_days() {
+    let term = Term::Aging {
+        rate_dph_per_day: 0.001,
+    };
+    let t = [0.0, 43_200.0, 86_400.0];
+    let c = contribution(&term, &t, &[20.0; 3], &[0.0; 3]);
+    assert_eq!(c, vec![0.0, 0.0005, 0.001]);
+}
+
+#[test]
+fn heteroscedastic_scale_and_quantization() {
+    let h = Term::Heteroscedastic {
+        k: 0.5,
+        ref_c: 20.0,
+    };
+    let c = contribution(&h, &[0.0, 1.0], &[20.0, 80.0], &[0.0; 2]);
+    assert_eq!(c, vec![1.0, 1.0 + 0.5 * 4.0]);
+    let q = Term::TempQuantization { step_c: 0.0625 };
+    let c = contribution(&q, &[0.0, 1.0], &[20.03, 20.04], &[0.0; 2]);
+    assert_eq!(c, vec![20.0, 20.0625]);
+}
+
+#[test]
+fn names_round_trip_through_toml() {
+    let terms = vec![
+        Term::EarthRate {
+            latitude_deg: 28.2,
+            axis: Axis::Down,
+        },
+        Term::RateTerms {
+            linear: 1.0,
+            cubic: 0.0,
+            temp_linear: 0.0,
+        },
+        Term::ModeHop {
+            temp_c: 40.0,
+            step_dph: 0.002,
+            hysteresis_c: 3.0,
+        },
+    ];
+    #[derive(Serialize, Deserialize)]
+    struct W {
+        terms: Vec<Term>,
+    }
+    let s = toml::to_string(&W {
+        terms: terms.clone(),
+    })
+    .unwrap();
+    assert!(s.contains("kind = \"mode_hop\""), "{s}");
+    let back: W = toml::from_str(&s).unwrap();
+    assert_eq!(back.terms, terms);
+    for t in &terms {
+        assert!(s.contains(t.name()));
+    }
+    assert!(toml::from_str::<W>("[[terms]]\nkind = \"aging\"\nrate = 1.0\n").is_err());
+    assert!(Term::Backscatter {
+        period_c: 0.0,
+        amplitude_dph: 1.0,
+        phase_rad: 0.0
+    }
+    .validate()
+    .is_err());
+}
