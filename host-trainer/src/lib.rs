@@ -4,11 +4,13 @@
 //! A library with a thin CLI (`rlg`) on top: everything the CLI does is callable from Rust.
 
 pub mod cli;
+pub mod cycles;
 pub mod export;
 pub mod features;
 pub mod lssvm;
 pub mod metrics;
 pub mod model;
 pub mod physics;
+pub mod pipeline;
 pub mod recording;
 pub mod simulate;

@@ -1,5 +1,6 @@
 //! The `rlg` command line: argument parsing and printing on top of the library.
 
+pub mod default_table;
 pub mod export;
 pub mod simulate;
 pub mod train;
@@ -22,6 +23,8 @@ pub enum Command {
     Train(train::TrainArgs),
     /// Write a model file as a Rust const table for the board.
     Export(export::ExportArgs),
+    /// Regenerate the board's default table from the shipped dynamic scenario.
+    DefaultTable(default_table::DefaultTableArgs),
     /// Simulate a thermal-chamber experiment: writes the recording and `<stem>.truth.json`.
     Simulate(simulate::SimulateArgs),
 }
@@ -33,6 +36,7 @@ impl Cli {
             Command::Train(a) => train::run(&a, command_line),
             Command::Export(a) => export::run(&a, command_line),
             Command::Simulate(a) => simulate::run(&a),
+            Command::DefaultTable(a) => default_table::run(&a),
         }
     }
 }

@@ -2,8 +2,8 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context as _;
 use crate::simulate::{simulate, truth_path, write_simulation, Scenario};
+use anyhow::Context as _;
 
 /// Arguments of `rlg simulate`.
 #[derive(Debug, clap::Args)]

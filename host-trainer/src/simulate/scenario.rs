@@ -112,8 +112,15 @@ impl Scenario {
             path: p.clone(),
             source,
         })?;
-        let s: Scenario =
-            toml::from_str(&text).map_err(|source| ScenarioError::Parse { path: p, source })?;
+        Self::from_toml_str(&text, &p)
+    }
+
+    /// Parses and validates scenario text; `origin` names it in errors.
+    pub fn from_toml_str(text: &str, origin: &str) -> Result<Self, ScenarioError> {
+        let s: Scenario = toml::from_str(text).map_err(|source| ScenarioError::Parse {
+            path: origin.to_string(),
+            source,
+        })?;
         s.validate()?;
         Ok(s)
     }
