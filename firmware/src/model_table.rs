@@ -9,12 +9,10 @@
 // TRAINING errors over 350 samples: RMS 1.551e-3 °/h, max |error| 4.450e-3 °/h.
 
 /// The model table; see the header for its provenance.
+#[rustfmt::skip]
 pub const MODEL: compensator_core::ModelTable<350, 2> = compensator_core::ModelTable {
     spec: compensator_core::ModelSpec {
-        features: [
-            compensator_core::Feature::TempC,
-            compensator_core::Feature::TempRateCPerS,
-        ],
+        features: [compensator_core::Feature::TempC, compensator_core::Feature::TempRateCPerS],
         input_mean: [36.405357, 0.00011772319],
         input_inv_scale: [0.041893255, 174.4377],
         input_lo: [11.1627, -0.01496788],

@@ -232,6 +232,8 @@ fn render<const D: usize>(m: &ModelFile, command: &str) -> Result<String, Export
     );
     let _ = writeln!(o);
     let _ = writeln!(o, "/// The model table; see the header for its provenance.");
+    // Generated text is compared byte for byte with a fresh export; keep rustfmt off it.
+    let _ = writeln!(o, "#[rustfmt::skip]");
     let _ = writeln!(
         o,
         "pub const MODEL: compensator_core::ModelTable<{n}, {D}> = compensator_core::ModelTable {{"

@@ -9,6 +9,7 @@
 // TRAINING errors over 11 samples: RMS 3.756e-4 °/h, max |error| 5.844e-4 °/h.
 
 /// The model table; see the header for its provenance.
+#[rustfmt::skip]
 pub const MODEL: compensator_core::ModelTable<11, 1> = compensator_core::ModelTable {
     spec: compensator_core::ModelSpec {
         features: [compensator_core::Feature::TempC],
