@@ -5,3 +5,5 @@
 
 pub mod recording;
 pub mod metrics;
+pub mod baselines;
+pub mod table1;
