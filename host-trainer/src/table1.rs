@@ -8,8 +8,13 @@ use std::path::Path;
 pub const BUNDLED_CSV: &str = include_str!("../data/yu2011_table1_static.csv");
 
 /// Column names, in the order of [`Table1Row`]'s fields.
-pub const COLUMNS: [&str; 5] =
-    ["chamber_c", "temp_c", "rate_dph", "quad_err_1e4_dph", "lssvm_err_1e4_dph"];
+pub const COLUMNS: [&str; 5] = [
+    "chamber_c",
+    "temp_c",
+    "rate_dph",
+    "quad_err_1e4_dph",
+    "lssvm_err_1e4_dph",
+];
 
 /// One temperature point of Table 1.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -71,7 +76,10 @@ pub enum Table1Error {
 
 fn csv_error(e: csv::Error) -> Table1Error {
     let line = e.position().map_or(0, |p| p.line());
-    Table1Error::Csv { line, message: e.to_string() }
+    Table1Error::Csv {
+        line,
+        message: e.to_string(),
+    }
 }
 
 /// Parses Table 1 CSV text. Column order is free; extra columns are ignored.
@@ -88,7 +96,10 @@ pub fn parse_table1(text: &str) -> Result<Vec<Table1Row>, Table1Error> {
         idx[k] = headers
             .iter()
             .position(|h| h == *name)
-            .ok_or(Table1Error::MissingColumn { line: header_line, column: name })?;
+            .ok_or(Table1Error::MissingColumn {
+                line: header_line,
+                column: name,
+            })?;
     }
     let mut rows = Vec::new();
     for rec in rdr.records() {
@@ -97,9 +108,15 @@ pub fn parse_table1(text: &str) -> Result<Vec<Table1Row>, Table1Error> {
         let mut v = [0.0; 5];
         for (k, column) in COLUMNS.iter().enumerate() {
             let text = rec.get(idx[k]).unwrap_or("");
-            v[k] = text.parse::<f64>().ok().filter(|x| x.is_finite()).ok_or_else(|| {
-                Table1Error::BadNumber { line, column, value: text.to_string() }
-            })?;
+            v[k] = text
+                .parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| Table1Error::BadNumber {
+                    line,
+                    column,
+                    value: text.to_string(),
+                })?;
         }
         rows.push(Table1Row {
             chamber_c: v[0],
@@ -117,8 +134,10 @@ pub fn parse_table1(text: &str) -> Result<Vec<Table1Row>, Table1Error> {
 
 /// Reads a Table 1 CSV file.
 pub fn read_table1(path: &Path) -> Result<Vec<Table1Row>, Table1Error> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|source| Table1Error::Io { path: path.display().to_string(), source })?;
+    let text = std::fs::read_to_string(path).map_err(|source| Table1Error::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
     parse_table1(&text)
 }
 
@@ -156,14 +175,34 @@ mod tests {
     fn errors_name_line_and_column() {
         let text = "# c\nchamber_c,temp_c,rate_dph,quad_err_1e4_dph,lssvm_err_1e4_dph\n1,2,3,4,5\n1,2,x,4,5\n";
         let e = parse_table1(text).unwrap_err();
-        assert!(matches!(e, Table1Error::BadNumber { line: 4, column: "rate_dph", .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                Table1Error::BadNumber {
+                    line: 4,
+                    column: "rate_dph",
+                    ..
+                }
+            ),
+            "{e}"
+        );
         assert!(e.to_string().contains("line 4") && e.to_string().contains("rate_dph"));
 
         let e = parse_table1("chamber_c,temp_c,rate_dph,quad_err_1e4_dph\n1,2,3,4\n").unwrap_err();
-        assert!(matches!(e, Table1Error::MissingColumn { column: "lssvm_err_1e4_dph", .. }), "{e}");
+        assert!(
+            matches!(
+                e,
+                Table1Error::MissingColumn {
+                    column: "lssvm_err_1e4_dph",
+                    ..
+                }
+            ),
+            "{e}"
+        );
 
-        let e = parse_table1("chamber_c,temp_c,rate_dph,quad_err_1e4_dph,lssvm_err_1e4_dph\n1,2,3\n")
-            .unwrap_err();
+        let e =
+            parse_table1("chamber_c,temp_c,rate_dph,quad_err_1e4_dph,lssvm_err_1e4_dph\n1,2,3\n")
+                .unwrap_err();
         assert!(matches!(e, Table1Error::Csv { line: 2, .. }), "{e}");
 
         let e = parse_table1("chamber_c,temp_c,rate_dph,quad_err_1e4_dph,lssvm_err_1e4_dph\n")

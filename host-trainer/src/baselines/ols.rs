@@ -128,17 +128,30 @@ pub fn ols(columns: &[Vec<f64>], y: &[f64]) -> Result<Ols, OlsError> {
     }
     for (column, c) in columns.iter().enumerate() {
         if c.len() != n {
-            return Err(OlsError::LengthMismatch { column, got: c.len(), expected: n });
+            return Err(OlsError::LengthMismatch {
+                column,
+                got: c.len(),
+                expected: n,
+            });
         }
         if let Some(row) = c.iter().position(|v| !v.is_finite()) {
-            return Err(OlsError::NonFinite { row, where_: "design" });
+            return Err(OlsError::NonFinite {
+                row,
+                where_: "design",
+            });
         }
     }
     if let Some(row) = y.iter().position(|v| !v.is_finite()) {
-        return Err(OlsError::NonFinite { row, where_: "response" });
+        return Err(OlsError::NonFinite {
+            row,
+            where_: "response",
+        });
     }
     if n <= p {
-        return Err(OlsError::TooFewPoints { points: n, params: p });
+        return Err(OlsError::TooFewPoints {
+            points: n,
+            params: p,
+        });
     }
 
     let x = Mat::from_fn(n, p, |i, j| columns[j][i]);
@@ -167,9 +180,18 @@ pub fn ols(columns: &[Vec<f64>], y: &[f64]) -> Result<Ols, OlsError> {
     let residuals: Vec<f64> = (0..n)
         .map(|i| y[i] - (0..p).map(|j| columns[j][i] * coef[j]).sum::<f64>())
         .collect();
-    let leverage = (0..n).map(|i| (0..p).map(|j| q[(i, j)] * q[(i, j)]).sum()).collect();
+    let leverage = (0..n)
+        .map(|i| (0..p).map(|j| q[(i, j)] * q[(i, j)]).sum())
+        .collect();
     let rss = residuals.iter().map(|e| e * e).sum();
-    Ok(Ols { coef, cov_unscaled, residuals, leverage, rss, dof: n - p })
+    Ok(Ols {
+        coef,
+        cov_unscaled,
+        residuals,
+        leverage,
+        rss,
+        dof: n - p,
+    })
 }
 
 #[cfg(test)]
@@ -182,9 +204,17 @@ mod tests {
     /// leverages 1/n + (x − x̄)²/Sxx = [0.7, 0.3, 0.3, 0.7].
     #[test]
     fn simple_regression_matches_hand_computation() {
-        let fit = ols(&[vec![1.0; 4], vec![0.0, 1.0, 2.0, 3.0]], &[1.0, 3.0, 2.0, 5.0]).unwrap();
+        let fit = ols(
+            &[vec![1.0; 4], vec![0.0, 1.0, 2.0, 3.0]],
+            &[1.0, 3.0, 2.0, 5.0],
+        )
+        .unwrap();
         let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
-        assert!(close(fit.coef[0], 1.1) && close(fit.coef[1], 1.1), "{:?}", fit.coef);
+        assert!(
+            close(fit.coef[0], 1.1) && close(fit.coef[1], 1.1),
+            "{:?}",
+            fit.coef
+        );
         for (r, e) in fit.residuals.iter().zip([-0.1, 0.8, -1.3, 0.6]) {
             assert!(close(*r, e));
         }
@@ -202,7 +232,10 @@ mod tests {
     fn bad_inputs_are_errors() {
         let y = [1.0, 2.0, 3.0];
         assert_eq!(ols(&[], &y), Err(OlsError::NoColumns));
-        assert!(matches!(ols(&[vec![1.0; 2]], &y), Err(OlsError::LengthMismatch { .. })));
+        assert!(matches!(
+            ols(&[vec![1.0; 2]], &y),
+            Err(OlsError::LengthMismatch { .. })
+        ));
         assert!(matches!(
             ols(&[vec![1.0; 3], vec![2.0; 3]], &y),
             Err(OlsError::RankDeficient { column: 1 })
@@ -212,7 +245,10 @@ mod tests {
             Err(OlsError::NonFinite { row: 1, .. })
         ));
         assert!(matches!(
-            ols(&[vec![1.0; 3], vec![0.0, 1.0, 2.0], vec![0.0, 1.0, 4.0]], &y),
+            ols(
+                &[vec![1.0; 3], vec![0.0, 1.0, 2.0], vec![0.0, 1.0, 4.0]],
+                &y
+            ),
             Err(OlsError::TooFewPoints { .. })
         ));
     }

@@ -57,7 +57,10 @@ impl PolyFit {
     /// Fits a polynomial of `degree` to the points (x, y) by least squares.
     pub fn fit(x: &[f64], y: &[f64], degree: usize) -> Result<Self, PolyError> {
         if x.len() != y.len() {
-            return Err(PolyError::LengthMismatch { x: x.len(), y: y.len() });
+            return Err(PolyError::LengthMismatch {
+                x: x.len(),
+                y: y.len(),
+            });
         }
         if let Some(i) = x.iter().position(|v| !v.is_finite()) {
             return Err(PolyError::NonFiniteX(i));
@@ -70,8 +73,9 @@ impl PolyFit {
         }
         let scale = if sd > 0.0 { sd } else { 1.0 };
         let t: Vec<f64> = x.iter().map(|v| (v - centre) / scale).collect();
-        let columns: Vec<Vec<f64>> =
-            (0..=degree).map(|k| t.iter().map(|ti| ti.powi(k as i32)).collect()).collect();
+        let columns: Vec<Vec<f64>> = (0..=degree)
+            .map(|k| t.iter().map(|ti| ti.powi(k as i32)).collect())
+            .collect();
         let fit = ols(&columns, y)?;
 
         // Σₖ bₖ ((x − c)/s)ᵏ = Σⱼ xʲ Σₖ≥ⱼ bₖ C(k, j) (−c)^(k−j) / sᵏ, i.e. a = M b.
@@ -83,7 +87,9 @@ impl PolyFit {
                 binomial(k, j) * (-centre).powi((k - j) as i32) / scale.powi(k as i32)
             }
         };
-        let raw: Vec<f64> = (0..p).map(|j| (0..p).map(|k| m(j, k) * fit.coef[k]).sum()).collect();
+        let raw: Vec<f64> = (0..p)
+            .map(|j| (0..p).map(|k| m(j, k) * fit.coef[k]).sum())
+            .collect();
         // Var(aⱼ) = Σₖ Σₗ Mⱼₖ Cov(bₖ, bₗ) Mⱼₗ
         let raw_se = (0..p)
             .map(|j| {
@@ -94,7 +100,15 @@ impl PolyFit {
                     .sqrt()
             })
             .collect();
-        Ok(Self { degree, centre, scale, scaled: fit.coef.clone(), raw, raw_se, fit })
+        Ok(Self {
+            degree,
+            centre,
+            scale,
+            scaled: fit.coef.clone(),
+            raw,
+            raw_se,
+            fit,
+        })
     }
 
     /// Degree of the polynomial.
@@ -150,7 +164,9 @@ mod tests {
         let mut s = seed;
         (0..n)
             .map(|_| {
-                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                s = s
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
                 (s >> 11) as f64 / (1u64 << 52) as f64 - 1.0
             })
             .collect()
@@ -167,7 +183,10 @@ mod tests {
         assert!(close(f.std_errors()[1], (1.35f64 / 5.0).sqrt()));
         assert!(close(f.std_errors()[0], (1.35f64 * 0.7).sqrt()));
         let loo = f.loo_residuals().unwrap();
-        for (l, e) in loo.iter().zip([-0.1 / 0.3, 0.8 / 0.7, -1.3 / 0.7, 0.6 / 0.3]) {
+        for (l, e) in loo
+            .iter()
+            .zip([-0.1 / 0.3, 0.8 / 0.7, -1.3 / 0.7, 0.6 / 0.3])
+        {
             assert!(close(*l, e), "{l} vs {e}");
         }
     }
@@ -194,8 +213,11 @@ mod tests {
         let n = 15;
         let x: Vec<f64> = (0..n).map(|i| -35.0 + 7.0 * i as f64).collect();
         let e = noise(n, 3);
-        let y: Vec<f64> =
-            x.iter().zip(&e).map(|(x, e)| -7.1 - 4e-4 * x + 2e-6 * x * x + 1e-3 * e).collect();
+        let y: Vec<f64> = x
+            .iter()
+            .zip(&e)
+            .map(|(x, e)| -7.1 - 4e-4 * x + 2e-6 * x * x + 1e-3 * e)
+            .collect();
         for degree in 1..=3 {
             let f = PolyFit::fit(&x, &y, degree).unwrap();
             let loo = f.loo_residuals().unwrap();
@@ -204,7 +226,11 @@ mod tests {
                     (0..n).filter(|&j| j != i).map(|j| (x[j], y[j])).unzip();
                 let g = PolyFit::fit(&xs, &ys, degree).unwrap();
                 let brute = y[i] - g.predict(x[i]);
-                assert!((loo[i] - brute).abs() < 1e-12, "deg {degree} pt {i}: {} vs {brute}", loo[i]);
+                assert!(
+                    (loo[i] - brute).abs() < 1e-12,
+                    "deg {degree} pt {i}: {} vs {brute}",
+                    loo[i]
+                );
             }
         }
     }
@@ -214,12 +240,19 @@ mod tests {
     #[test]
     fn raw_std_errors_match_unscaled_fit() {
         let n = 12;
-        let x: Vec<f64> = (0..n).map(|i| -1.0 + 2.0 * i as f64 / (n - 1) as f64).collect();
+        let x: Vec<f64> = (0..n)
+            .map(|i| -1.0 + 2.0 * i as f64 / (n - 1) as f64)
+            .collect();
         let e = noise(n, 9);
-        let y: Vec<f64> = x.iter().zip(&e).map(|(x, e)| 1.0 + x - 2.0 * x * x + 0.1 * e).collect();
+        let y: Vec<f64> = x
+            .iter()
+            .zip(&e)
+            .map(|(x, e)| 1.0 + x - 2.0 * x * x + 0.1 * e)
+            .collect();
         let f = PolyFit::fit(&x, &y, 2).unwrap();
-        let cols: Vec<Vec<f64>> =
-            (0..3).map(|k| x.iter().map(|x| x.powi(k)).collect()).collect();
+        let cols: Vec<Vec<f64>> = (0..3)
+            .map(|k| x.iter().map(|x| x.powi(k)).collect())
+            .collect();
         let direct = ols(&cols, &y).unwrap();
         for k in 0..3 {
             assert!((f.coefficients()[k] - direct.coef[k]).abs() < 1e-12);
@@ -229,8 +262,17 @@ mod tests {
 
     #[test]
     fn bad_inputs_are_errors() {
-        assert!(matches!(PolyFit::fit(&[1.0], &[1.0, 2.0], 1), Err(PolyError::LengthMismatch { .. })));
-        assert!(matches!(PolyFit::fit(&[2.0; 4], &[1.0; 4], 1), Err(PolyError::ConstantX { .. })));
-        assert!(matches!(PolyFit::fit(&[0.0, 1.0, 2.0], &[1.0; 3], 2), Err(PolyError::Ols(_))));
+        assert!(matches!(
+            PolyFit::fit(&[1.0], &[1.0, 2.0], 1),
+            Err(PolyError::LengthMismatch { .. })
+        ));
+        assert!(matches!(
+            PolyFit::fit(&[2.0; 4], &[1.0; 4], 1),
+            Err(PolyError::ConstantX { .. })
+        ));
+        assert!(matches!(
+            PolyFit::fit(&[0.0, 1.0, 2.0], &[1.0; 3], 2),
+            Err(PolyError::Ols(_))
+        ));
     }
 }
