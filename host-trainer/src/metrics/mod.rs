@@ -3,3 +3,4 @@
 pub mod stability;
 
 pub use stability::{bias_stability_dph, block_means, max_abs, rms};
+pub mod compare;
