@@ -7,3 +7,4 @@ pub mod recording;
 pub mod metrics;
 pub mod baselines;
 pub mod table1;
+pub mod plot;
