@@ -3,6 +3,7 @@
 //!
 //! A library with a thin CLI (`rlg`) on top: everything the CLI does is callable from Rust.
 
+pub mod baselines;
 pub mod cli;
 pub mod cycles;
 pub mod export;
@@ -12,5 +13,7 @@ pub mod metrics;
 pub mod model;
 pub mod physics;
 pub mod pipeline;
+pub mod plot;
 pub mod recording;
 pub mod simulate;
+pub mod table1;

@@ -4,3 +4,4 @@ pub mod allan;
 pub mod stability;
 
 pub use stability::{bias_stability_dph, block_means, max_abs, rms};
+pub mod compare;

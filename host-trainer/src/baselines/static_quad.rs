@@ -1,0 +1,140 @@
+//! The paper's static model (Table 1, Fig. 2(a)): least-squares quadratic of the averaged
+//! gyro output on gyro BODY temperature, errors quoted as prediction − measurement.
+//!
+//! Both conventions were checked against the published error row: the body-temperature
+//! regressor with prediction − measurement reproduces all 11 published errors within
+//! [`PAPER_QUAD_ERR_TOL_DPH`] (see the test); the chamber set temperature does not.
+
+use super::poly::{PolyError, PolyFit};
+use crate::table1::Table1Row;
+
+/// Published quadratic errors are printed to 3 significant digits of 1e-4 °/h and the
+/// outputs to 1e-4 °/h, so an honest refit agrees to a fraction of 1e-4 °/h. Budget
+/// 0.5e-4 °/h per point; measured max |ours − paper| = 3.6e-5 °/h (at −34.8 °C).
+pub const PAPER_QUAD_ERR_TOL_DPH: f64 = 0.5e-4;
+
+/// One point of the static reproduction. All errors are prediction − measurement, °/h.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StaticPoint {
+    /// Chamber set temperature, °C.
+    pub chamber_c: f64,
+    /// Gyro body temperature (the regressor), °C.
+    pub temp_c: f64,
+    /// Measured averaged output, °/h.
+    pub measured_dph: f64,
+    /// The paper's quadratic-model error, °/h.
+    pub paper_quad_err_dph: f64,
+    /// Our quadratic's TRAINING error (fit to all 11 points), °/h.
+    pub quad_err_dph: f64,
+    /// Our quadratic's LEAVE-ONE-OUT error (refit without this point), °/h.
+    pub loo_err_dph: f64,
+}
+
+/// The quadratic fit and its per-point errors.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StaticRepro {
+    /// The quadratic rate_dph(temp_c); coefficients in °/h, °/h/°C, °/h/°C².
+    pub fit: PolyFit,
+    /// One entry per Table 1 row, in table order.
+    pub points: Vec<StaticPoint>,
+}
+
+impl StaticRepro {
+    /// Largest |training error|, °/h.
+    pub fn max_abs_train_err_dph(&self) -> f64 {
+        self.points
+            .iter()
+            .map(|p| p.quad_err_dph.abs())
+            .fold(0.0, f64::max)
+    }
+    /// Largest |LOO error|, °/h.
+    pub fn max_abs_loo_err_dph(&self) -> f64 {
+        self.points
+            .iter()
+            .map(|p| p.loo_err_dph.abs())
+            .fold(0.0, f64::max)
+    }
+    /// Largest |ours − paper| over the training errors, °/h.
+    pub fn max_abs_diff_from_paper_dph(&self) -> f64 {
+        self.points
+            .iter()
+            .map(|p| (p.quad_err_dph - p.paper_quad_err_dph).abs())
+            .fold(0.0, f64::max)
+    }
+}
+
+/// Fits the least-squares quadratic of `rate_dph` on body temperature `temp_c` to the rows
+/// and reports training and leave-one-out errors (prediction − measurement).
+pub fn static_quadratic(rows: &[Table1Row]) -> Result<StaticRepro, PolyError> {
+    let t: Vec<f64> = rows.iter().map(|r| r.temp_c).collect();
+    let y: Vec<f64> = rows.iter().map(|r| r.rate_dph).collect();
+    let fit = PolyFit::fit(&t, &y, 2)?;
+    let loo = fit.loo_residuals()?;
+    let points = rows
+        .iter()
+        .zip(fit.residuals())
+        .zip(loo)
+        .map(|((r, e), l)| StaticPoint {
+            chamber_c: r.chamber_c,
+            temp_c: r.temp_c,
+            measured_dph: r.rate_dph,
+            paper_quad_err_dph: r.quad_err_1e4_dph * 1e-4,
+            // residual = y − ŷ; the paper quotes ŷ − y.
+            quad_err_dph: -e,
+            loo_err_dph: -l,
+        })
+        .collect();
+    Ok(StaticRepro { fit, points })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::table1::bundled;
+
+    /// Pins the reproduction of the published quadratic-error row of Table 1.
+    #[test]
+    fn reproduces_paper_quadratic_errors() {
+        let r = static_quadratic(&bundled().unwrap()).unwrap();
+        for p in &r.points {
+            assert!(
+                (p.quad_err_dph - p.paper_quad_err_dph).abs() <= PAPER_QUAD_ERR_TOL_DPH,
+                "T = {} °C: ours {:.3e}, paper {:.3e}",
+                p.temp_c,
+                p.quad_err_dph,
+                p.paper_quad_err_dph
+            );
+        }
+        eprintln!(
+            "max |ours − paper| = {:.3e} °/h",
+            r.max_abs_diff_from_paper_dph()
+        );
+        // The paper: "maximum error of least-squares quadratic model is less than 0.0014 °/h".
+        assert!(r.max_abs_train_err_dph() < 0.0014);
+    }
+
+    /// The chamber temperature as regressor does NOT reproduce the paper (so the choice of
+    /// body temperature is a finding, not an assumption).
+    #[test]
+    fn chamber_regressor_does_not_reproduce_paper() {
+        let rows = bundled().unwrap();
+        let x: Vec<f64> = rows.iter().map(|r| r.chamber_c).collect();
+        let y: Vec<f64> = rows.iter().map(|r| r.rate_dph).collect();
+        let f = PolyFit::fit(&x, &y, 2).unwrap();
+        let worst = rows
+            .iter()
+            .zip(f.residuals())
+            .map(|(r, e)| (-e - r.quad_err_1e4_dph * 1e-4).abs())
+            .fold(0.0, f64::max);
+        assert!(worst > PAPER_QUAD_ERR_TOL_DPH, "{worst}");
+    }
+
+    /// LOO errors are never smaller in magnitude than training errors (|e/(1−h)| ≥ |e|).
+    #[test]
+    fn loo_errors_exceed_training_errors() {
+        let r = static_quadratic(&bundled().unwrap()).unwrap();
+        for p in &r.points {
+            assert!(p.loo_err_dph.abs() >= p.quad_err_dph.abs());
+        }
+    }
+}
