@@ -1,7 +1,8 @@
 //! The 1 Hz compensation step: (temperature °C, gyro rate °/h) → compensated rate + status.
 //!
 //! Rules, in order of precedence (each sets its [`Status`] bit):
-//! 1. Table invalid (failed [`crate::ModelRef::validate`]): the raw rate passes through,
+//! 1. Table invalid (failed [`crate::ModelRef::validate`], or, for a compensator built with
+//!    [`Compensator::from_table`], a CRC-32 mismatch): the raw rate passes through,
 //!    `TABLE_FAULT`; nothing else is evaluated.
 //! 2. Gyro rate non-finite or beyond `rate_limit_dph`: the last good compensated rate is held
 //!    (0 before the first), `GYRO_FAULT`. The temperature path still runs.
@@ -19,7 +20,7 @@
 //! model's output is finite for clamped finite features and a validated table.
 
 use crate::rate::{RateEstimate, RateEstimator};
-use crate::table::{Feature, ModelRef};
+use crate::table::{Feature, ModelRef, ModelTable, TableError};
 
 /// Bit set describing one output sample. `Status::OK` (no bit) means compensated normally.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -121,6 +122,7 @@ pub struct Compensator<'a, const D: usize> {
     model: ModelRef<'a, D>,
     limits: SensorLimits,
     table_ok: bool,
+    table_error: Option<TableError>,
     rate: RateEstimator,
     skipped: u32,
     last_good_dph: f32,
@@ -128,12 +130,25 @@ pub struct Compensator<'a, const D: usize> {
 
 impl<'a, const D: usize> Compensator<'a, D> {
     /// A compensator for `model`; the table is validated once here.
+    /// No CRC is checked here (a [`ModelRef`] carries none; host-built models need none); the
+    /// board uses [`Compensator::from_table`].
     pub fn new(model: ModelRef<'a, D>, limits: SensorLimits) -> Self {
-        let table_ok = model.validate().is_ok();
+        Self::with_check(model, limits, model.validate().err())
+    }
+
+    /// A compensator for a flashed table: the stored CRC-32 and then the content are checked
+    /// once here ([`ModelTable::verify`]); on any failure every sample is `TABLE_FAULT` with
+    /// the raw rate passed through, and [`Compensator::table_error`] says why.
+    pub fn from_table<const N: usize>(table: &'a ModelTable<N, D>, limits: SensorLimits) -> Self {
+        Self::with_check(table.as_model(), limits, table.verify().err())
+    }
+
+    fn with_check(model: ModelRef<'a, D>, limits: SensorLimits, err: Option<TableError>) -> Self {
         Compensator {
             model,
             limits,
-            table_ok,
+            table_ok: err.is_none(),
+            table_error: err,
             rate: RateEstimator::new(model.spec.rate_filter),
             skipped: 0,
             last_good_dph: 0.0,
@@ -143,6 +158,11 @@ impl<'a, const D: usize> Compensator<'a, D> {
     /// Whether the table passed validation.
     pub const fn table_ok(&self) -> bool {
         self.table_ok
+    }
+
+    /// Why the table was rejected, if it was.
+    pub const fn table_error(&self) -> Option<TableError> {
+        self.table_error
     }
 
     /// The feature vector the model sees for a temperature estimate, before clamping.
@@ -264,6 +284,7 @@ mod tests {
         },
         support: [[-1.0, 0.0], [0.0, 0.0], [1.0, 0.5]],
         alpha_dph: [-0.01, 0.002, 0.01],
+        crc32: 0,
     };
 
     fn comp() -> Compensator<'static, 2> {
@@ -367,6 +388,36 @@ mod tests {
         assert_eq!(out.rate_dph, -7.0);
         let out = c.update(30.0, f32::NAN);
         assert!(out.rate_dph.is_finite());
+    }
+
+    /// A flipped bit in one coefficient of a sealed table is caught by the CRC even though the
+    /// corrupted table is otherwise valid (finite, right shape), and the compensator then passes
+    /// the raw rate through with `TABLE_FAULT` only.
+    #[test]
+    fn corrupted_coefficient_is_a_table_fault() {
+        let good = TABLE.sealed();
+        let c = Compensator::from_table(&good, SensorLimits::DEFAULT);
+        assert!(c.table_ok() && c.table_error().is_none());
+        for (k, bit) in [(0usize, 0u32), (1, 17), (2, 31)] {
+            let mut bad = good;
+            bad.alpha_dph[k] = f32::from_bits(bad.alpha_dph[k].to_bits() ^ (1 << bit));
+            assert!(bad.as_model().validate().is_ok(), "still a valid shape");
+            let mut c = Compensator::from_table(&bad, SensorLimits::DEFAULT);
+            assert!(
+                matches!(c.table_error(), Some(TableError::Checksum { stored, .. }) if stored == good.crc32),
+                "{:?}",
+                c.table_error()
+            );
+            for _ in 0..5 {
+                let out = c.update(30.0, -7.0);
+                assert_eq!(out.status, Status::TABLE_FAULT);
+                assert_eq!((out.rate_dph, out.correction_dph), (-7.0, 0.0));
+            }
+        }
+        // A stale stored CRC (any content change, e.g. the bias) is caught the same way.
+        let mut bad = good;
+        bad.spec.bias_dph += 1e-3;
+        assert!(matches!(bad.verify(), Err(TableError::Checksum { .. })));
     }
 
     fn any_f32() -> impl Strategy<Value = f32> {

@@ -83,6 +83,7 @@ mod tests {
             spec: spec(),
             support: [[-1.0], [1.0]],
             alpha_dph: [0.25, -0.5],
+            crc32: 0,
         };
         let m = table.as_model();
         m.validate().unwrap();
@@ -100,6 +101,7 @@ mod tests {
             spec: spec(),
             support: [[0.0], [0.0], [0.0]],
             alpha_dph: [1.0e4, 1.0e-3, -1.0e4],
+            crc32: 0,
         };
         let got = table.as_model().predict_standardised_dph(&[0.0]) + 7.0;
         assert!((got - 1.0e-3).abs() < 1e-6, "{got}");

@@ -71,6 +71,9 @@ pub struct ModelTable<const N: usize, const D: usize> {
     pub support: [[f32; D]; N],
     /// Coefficients a_i of Eq. (10), °/h.
     pub alpha_dph: [f32; N],
+    /// CRC-32 of the numeric content above, computed by the exporter (stream and algorithm:
+    /// [`crate::crc`]); checked at boot by [`ModelTable::verify`].
+    pub crc32: u32,
 }
 
 impl<const N: usize, const D: usize> ModelTable<N, D> {
@@ -81,6 +84,26 @@ impl<const N: usize, const D: usize> ModelTable<N, D> {
             support: &self.support,
             alpha_dph: &self.alpha_dph,
         }
+    }
+
+    /// The table with `crc32` set to the checksum of its content (for tables built in code,
+    /// such as tests and synthetic benchmark tables; exported tables carry it already).
+    pub fn sealed(mut self) -> Self {
+        self.crc32 = self.as_model().content_crc32();
+        self
+    }
+
+    /// Checks the stored CRC against the content, then [`ModelRef::validate`]: everything the
+    /// board checks once at boot before trusting the table.
+    pub fn verify(&self) -> Result<(), TableError> {
+        let computed = self.as_model().content_crc32();
+        if computed != self.crc32 {
+            return Err(TableError::Checksum {
+                stored: self.crc32,
+                computed,
+            });
+        }
+        self.as_model().validate()
     }
 }
 
@@ -109,6 +132,14 @@ pub enum TableError {
     Invalid,
     /// The dT/dt filter gains are outside the stable region.
     RateFilter,
+    /// The stored CRC-32 does not match the table's content (corrupted flash or a table
+    /// edited after export).
+    Checksum {
+        /// CRC-32 stored in the table.
+        stored: u32,
+        /// CRC-32 computed over the content at check time.
+        computed: u32,
+    },
 }
 
 impl core::fmt::Display for TableError {
@@ -118,6 +149,12 @@ impl core::fmt::Display for TableError {
             TableError::NonFinite => "table holds a NaN or infinite number",
             TableError::Invalid => "table has a non-positive scale or gamma, or an empty range",
             TableError::RateFilter => "dT/dt filter gains are outside the stable region",
+            TableError::Checksum { stored, computed } => {
+                return write!(
+                    f,
+                    "table CRC-32 mismatch: stored {stored:#010x}, computed {computed:#010x}"
+                )
+            }
         })
     }
 }

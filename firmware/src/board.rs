@@ -2,7 +2,7 @@
 
 use core::sync::atomic::{AtomicBool, Ordering};
 
-use compensator_core::SensorLimits;
+use compensator_core::{ModelTable, SensorLimits, TableError};
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 use cortex_m_rt::{entry, exception, ExceptionFrame};
@@ -30,6 +30,36 @@ const CALIBRATION_LOOPS: u32 = 20_000;
 /// unset in every normal build.
 const INJECT_FAULT: Option<&str> = option_env!("RLG_FW_FAULT");
 
+/// `RLG_FW_FAULT=table`: the image runs a copy of the table with one bit of one coefficient
+/// flipped and the stored CRC left as exported, to test the boot-time check.
+const CORRUPT_TABLE: bool = match INJECT_FAULT {
+    Some(v) => bytes_eq(v.as_bytes(), b"table"),
+    None => false,
+};
+
+/// Byte-wise equality usable in a constant (`str` cannot be compared in const context).
+const fn bytes_eq(a: &[u8], b: &[u8]) -> bool {
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut i = 0;
+    while i < a.len() {
+        if a[i] != b[i] {
+            return false;
+        }
+        i += 1;
+    }
+    true
+}
+
+/// `t` with the lowest mantissa bit of its middle coefficient flipped: a still-finite, still
+/// well-shaped table that only the CRC can tell from the original.
+const fn corrupted<const N: usize, const D: usize>(mut t: ModelTable<N, D>) -> ModelTable<N, D> {
+    let k = N / 2;
+    t.alpha_dph[k] = f32::from_bits(t.alpha_dph[k].to_bits() ^ 1);
+    t
+}
+
 /// `f`'s result and the SysTick ticks it took (SysTick counts down).
 fn timed<T>(f: impl FnOnce() -> T) -> (T, u32) {
     let t0 = SYST::get_current();
@@ -52,8 +82,74 @@ fn fail() -> ! {
     }
 }
 
+/// Stack high-water mark: the stack below the entry frame is painted with a pattern at boot,
+/// and at the end the lowest overwritten word tells how deep the stack went.
+mod stack {
+    use core::ptr::{addr_of, read_volatile, write_volatile};
+
+    /// The paint pattern; a stack word equal to it by chance would make the figure too low by
+    /// at most the words below it, which is why the scan looks for the lowest changed word.
+    const PAINT: u32 = 0xC5AC_CE55;
+    /// Painted window below the stack pointer at boot, bytes; a deeper stack reads as "at
+    /// least" this much.
+    pub const WINDOW: usize = 32 * 1024;
+    /// Words left unpainted just below the stack pointer (the painting loop's own spills).
+    const GUARD: usize = 64;
+
+    extern "C" {
+        static _stack_start: u32;
+        static _stack_end: u32;
+    }
+
+    /// The painted region: `[lo, hi)` and the stack top.
+    pub struct Painted {
+        lo: usize,
+        hi: usize,
+        top: usize,
+    }
+
+    /// Paints the free stack below the current stack pointer.
+    #[allow(unsafe_code)] // raw writes to stack memory no Rust object owns yet
+    pub fn paint() -> Painted {
+        // Only the addresses of the linker symbols are taken (safe since Rust 1.82).
+        let (top, end) = (
+            addr_of!(_stack_start) as usize,
+            addr_of!(_stack_end) as usize,
+        );
+        let sp = cortex_m::register::msp::read() as usize;
+        let hi = sp.saturating_sub(GUARD) & !3;
+        let lo = end
+            .max(sp.saturating_sub(WINDOW))
+            .next_multiple_of(4)
+            .min(hi);
+        let mut a = lo;
+        while a < hi {
+            // SAFETY: [lo, hi) lies between the end of static RAM and below the live stack
+            // frame, word aligned; nothing else uses it (no interrupts are enabled).
+            unsafe { write_volatile(a as *mut u32, PAINT) };
+            a += 4;
+        }
+        Painted { lo, hi, top }
+    }
+
+    /// Deepest stack use since [`paint`], bytes below the stack top.
+    #[allow(unsafe_code)] // reads of the painted region
+    pub fn high_water(p: &Painted) -> u32 {
+        let mut a = p.lo;
+        while a < p.hi {
+            // SAFETY: the painted region, word aligned, still RAM.
+            if unsafe { read_volatile(a as *const u32) } != PAINT {
+                break;
+            }
+            a += 4;
+        }
+        u32::try_from(p.top - a).unwrap_or(u32::MAX)
+    }
+}
+
 #[entry]
 fn main() -> ! {
+    let painted = stack::paint();
     let Some(cp) = cortex_m::Peripherals::take() else {
         fail()
     };
@@ -93,9 +189,23 @@ fn main() -> ! {
     }
 
     let (temp, rate) = replay::channels(data);
-    let mut ctl = ControlLoop::new(&MODEL, SensorLimits::DEFAULT, temp, rate);
-    if !ctl.table_ok() {
-        defmt::warn!("model table failed validation: raw rates pass through (TABLE_FAULT)");
+    let table = if CORRUPT_TABLE {
+        const { &corrupted(MODEL) }
+    } else {
+        &MODEL
+    };
+    let mut ctl = ControlLoop::new(table, SensorLimits::DEFAULT, temp, rate);
+    match ctl.table_error() {
+        None => defmt::info!("model table CRC-32 {=u32:#010x} verified", table.crc32),
+        Some(TableError::Checksum { stored, computed }) => defmt::error!(
+            "model table CRC-32 mismatch: stored {=u32:#010x}, computed {=u32:#010x}; raw rates pass through (TABLE_FAULT)",
+            stored,
+            computed
+        ),
+        Some(e) => defmt::error!(
+            "model table failed validation: {}; raw rates pass through (TABLE_FAULT)",
+            e
+        ),
     }
     let Ok(stderr) = hio::hstderr() else {
         defmt::error!("semihosting stderr unavailable");
@@ -136,6 +246,11 @@ fn main() -> ! {
         cost.max,
         cost.total,
         cost.calls
+    );
+    defmt::info!(
+        "stack: high_water_bytes={=u32} (painted window {=usize} bytes)",
+        stack::high_water(&painted),
+        stack::WINDOW
     );
     if !written {
         defmt::error!("the host did not take every sample line");

@@ -66,6 +66,12 @@ impl<const D: usize> F32Model<D> {
             alpha_dph: &self.alpha_dph,
         }
     }
+
+    /// CRC-32 of the table's content, as the board computes it at boot
+    /// (`compensator_core::crc`); the exported table stores this value.
+    pub fn crc32(&self) -> u32 {
+        self.as_model().content_crc32()
+    }
 }
 
 /// Nearest f32, or an error when it is not finite.
@@ -274,6 +280,8 @@ fn render<const D: usize>(m: &ModelFile, command: &str) -> Result<String, Export
         let _ = writeln!(o, "        {},", f32_literal(*a));
     }
     let _ = writeln!(o, "    ],");
+    // Hex, so the staleness comparison of numbers treats it as exact text.
+    let _ = writeln!(o, "    crc32: {:#010x},", t.crc32());
     let _ = writeln!(o, "}};");
     Ok(o)
 }
