@@ -237,6 +237,17 @@ fn render<const D: usize>(m: &ModelFile, command: &str) -> Result<String, Export
         m.training.samples, m.training.rms_dph, m.training.max_abs_dph
     );
     let _ = writeln!(o);
+    o.push_str(&table_item(&t)?);
+    Ok(o)
+}
+
+/// The `pub const MODEL` item of a converted table (doc line, attributes, all fields,
+/// including the CRC-32): the body of every exported table file, also used on its own for
+/// tables made in code (synthetic benchmark tables).
+pub fn table_item<const D: usize>(t: &F32Model<D>) -> Result<String, ExportError> {
+    let s = &t.spec;
+    let n = t.support.len();
+    let mut o = String::new();
     let _ = writeln!(o, "/// The model table; see the header for its provenance.");
     // Generated text is compared byte for byte with a fresh export; keep rustfmt off it.
     let _ = writeln!(o, "#[rustfmt::skip]");
