@@ -9,6 +9,7 @@
 //!
 //! * [`table`]: the exported model table and its validation.
 //! * [`fastexp`]: a faster kernel exp, offered with its measured accuracy cost.
+//! * [`fixed`]: integer-only evaluation of Eq. (10) for FPU-less boards.
 //! * [`crc`]: the table's CRC-32, computed at export and checked at boot.
 //! * [`lssvm`]: f32 evaluation of Eq. (10).
 //! * [`rate`]: the recursive dT/dt estimator shared by the trainer and the board.
@@ -18,6 +19,7 @@
 pub mod compensator;
 pub mod crc;
 pub mod fastexp;
+pub mod fixed;
 pub mod lssvm;
 pub mod rate;
 pub mod table;
