@@ -3,13 +3,15 @@
 use core::hint::black_box;
 use core::sync::atomic::{AtomicBool, Ordering};
 
+use compensator_core::fixed::{FixedModel, FixedTrace};
 use compensator_core::{fastexp, ModelTable, SensorLimits, TableError};
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
 use cortex_m_semihosting::hio::{self, HostStream};
-use defmt_semihosting as _; // the global defmt logger
+use defmt_semihosting as _;
+use firmware::sensor::TemperatureSensor; // the global defmt logger
 
 use firmware::control::ControlLoop;
 use firmware::model_table::MODEL;
@@ -60,6 +62,11 @@ const fn corrupted<const N: usize, const D: usize>(mut t: ModelTable<N, D>) -> M
     t.alpha_dph[k] = f32::from_bits(t.alpha_dph[k].to_bits() ^ 1);
     t
 }
+
+/// `RLG_FW_FIXED` (any value): after the f32 replay, the image replays the temperatures again
+/// through the integer evaluator ([`compensator_core::fixed`]) and logs the digest of its
+/// outputs and its cost, for the bit-for-bit comparison with the host and the budgets.
+const FIXED_PASS: bool = option_env!("RLG_FW_FIXED").is_some();
 
 /// `f`'s result and the SysTick ticks it took (SysTick counts down).
 fn timed<T>(f: impl FnOnce() -> T) -> (T, u32) {
@@ -246,6 +253,34 @@ fn main() -> ! {
         }
     }
     let (_, written) = out.end();
+
+    if FIXED_PASS {
+        let fixed = const {
+            &match FixedModel::from_table(&MODEL) {
+                Ok(f) => f,
+                Err(_) => panic!("the model table has no Q24 form"),
+            }
+        };
+        let (temps, _) = replay::channels(data);
+        let mut trace = FixedTrace::new(table.as_model());
+        let mut fcost = Cost::default();
+        let mut temps = temps;
+        for _ in 0..count {
+            let t = temps.read_temp_c().unwrap_or(f32::NAN);
+            if let Some(z) = trace.features(t) {
+                let (y, ticks) = timed(|| fixed.predict(black_box(&z)));
+                fcost.add(ticks);
+                trace.fold(y);
+            }
+        }
+        defmt::info!(
+            "fixed: digest={=u32} outputs={=u32} predict_total={=u64} calls={=u32} (SysTick ticks of FixedModel::predict)",
+            trace.digest(),
+            trace.count(),
+            fcost.total,
+            fcost.calls
+        );
+    }
 
     let s = ctl.summary();
     defmt::info!(

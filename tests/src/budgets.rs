@@ -119,7 +119,14 @@ pub struct ImageOptions {
     pub table_file: Option<PathBuf>,
     /// `RLG_FW_FAULT` value (None: a normal image).
     pub fault: Option<String>,
+    /// Add the fixed-point pass (`RLG_FW_FIXED`).
+    pub fixed_pass: bool,
+    /// Target triple (None: [`firmware::TARGET`], the Cortex-M4F).
+    pub target: Option<String>,
 }
+
+/// The FPU-less target of the fixed-point image, run on QEMU's `mps2-an385` (Cortex-M3).
+pub const M3_TARGET: &str = "thumbv7m-none-eabi";
 
 /// Builds the board image with `replay_bin` and `opts`, copying the ELF to `dest`.
 pub fn build_image(
@@ -137,7 +144,10 @@ pub fn build_image(
     let mut cmd = Command::new(&cargo);
     cmd.current_dir(firmware::workspace_root())
         .args(["build", "-p", "firmware", "--profile", "firmware"])
-        .args(["--target", firmware::TARGET])
+        .args([
+            "--target",
+            opts.target.as_deref().unwrap_or(firmware::TARGET),
+        ])
         .args(["--message-format", "json-render-diagnostics"])
         .env("RLG_REPLAY_BIN", abs(replay_bin)?)
         .stdin(Stdio::null());
@@ -145,6 +155,11 @@ pub fn build_image(
         Some(t) => cmd.env("RLG_MODEL_TABLE", abs(t)?),
         None => cmd.env_remove("RLG_MODEL_TABLE"),
     };
+    if opts.fixed_pass {
+        cmd.env("RLG_FW_FIXED", "1");
+    } else {
+        cmd.env_remove("RLG_FW_FIXED");
+    }
     match &opts.fault {
         Some(f) => cmd.env("RLG_FW_FAULT", f),
         None => cmd.env_remove("RLG_FW_FAULT"),

@@ -64,6 +64,7 @@ fn qemu_corrupted_table_passes_raw_rates_and_keeps_running() {
     let opts = ImageOptions {
         table_file: None,
         fault: Some("table".into()),
+        ..Default::default()
     };
     budgets::build_image(&bin, &opts, &elf).unwrap_or_else(|e| panic!("{e}"));
     let run = firmware::run_qemu(&elf, budgets::QEMU_TIMEOUT).unwrap_or_else(|e| panic!("{e}"));

@@ -20,6 +20,9 @@
 
 use crate::table::ModelTable;
 
+pub mod trace;
+pub use trace::FixedTrace;
+
 /// A signed fixed-point number: the `i32` holds value·2^F.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

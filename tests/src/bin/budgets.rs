@@ -61,6 +61,7 @@ fn main() -> anyhow::Result<()> {
             opts = ImageOptions {
                 table_file: Some(path),
                 fault: None,
+                ..Default::default()
             };
             model_owned = Some(t);
         }
