@@ -20,7 +20,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use compensator_core::{Feature, ModelRef, ModelSpec, RateFilter};
+use compensator_core::fixed::{FixedModel, Q, Z};
+use compensator_core::{Feature, ModelRef, ModelSpec, ModelTable, RateFilter};
 use host_trainer::export::{table_item, F32Model};
 use object::{Object, ObjectSection, ObjectSymbol, SectionFlags};
 
@@ -310,4 +311,49 @@ mod tests {
         assert!(e_libm < 1e-5 && e_fast < 1e-5, "{e_libm} {e_fast}");
         assert!(e_libm > 0.0);
     }
+}
+
+/// Largest |fixed-point − f64 reference| of Eq. (10) over the same 121 × 121 grid as
+/// [`max_errors_dph`], °/h; None when `t` does not have exactly `N` vectors or no Q form.
+pub fn max_fixed_error_dph<const N: usize>(t: &ModelTable<N, 2>) -> Option<f64> {
+    let fixed = FixedModel::from_table(t).ok()?;
+    let m = t.as_model();
+    let s = m.spec;
+    let mut worst = 0.0f64;
+    for i in 0..=120 {
+        for j in 0..=120 {
+            let x = [
+                s.input_lo[0] + (s.input_hi[0] - s.input_lo[0]) * i as f32 / 120.0,
+                s.input_lo[1] + (s.input_hi[1] - s.input_lo[1]) * j as f32 / 120.0,
+            ];
+            let z = m.standardise(&x);
+            let zq: [Z; 2] = [
+                Q::from_f32_bits(z[0].to_bits())?,
+                Q::from_f32_bits(z[1].to_bits())?,
+            ];
+            worst = worst.max((fixed.predict(&zq).to_f64() - predict_f64(&m, &z)).abs());
+        }
+    }
+    Some(worst)
+}
+
+/// `t` as a const-size table (sealed with its CRC), if it has exactly `N` vectors.
+pub fn sized<const N: usize>(t: &F32Model<2>) -> Option<ModelTable<N, 2>> {
+    Some(
+        ModelTable {
+            spec: t.spec,
+            support: t.support.as_slice().try_into().ok()?,
+            alpha_dph: t.alpha_dph.as_slice().try_into().ok()?,
+            crc32: 0,
+        }
+        .sealed(),
+    )
+}
+
+/// Mean instructions of `FixedModel::predict` from a run of an `RLG_FW_FIXED` image.
+pub fn fixed_cost(run: &QemuRun) -> Option<f64> {
+    let cal = line(run, "calibration:")?;
+    let per_tick = log_field(cal, "instructions")? as f64 / log_field(cal, "ticks")? as f64;
+    let f = line(run, "fixed:")?;
+    Some(log_field(f, "predict_total")? as f64 / log_field(f, "calls")? as f64 * per_tick)
 }

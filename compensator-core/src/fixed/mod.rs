@@ -85,11 +85,6 @@ impl<const F: u32> Q<F> {
     }
 }
 
-/// `(a·b) >> s` rounded to nearest (ties up), in i64; callers keep |a·b| < 2^62.
-const fn mul_shift(a: i64, b: i64, s: u32) -> i64 {
-    (a * b + (1 << (s - 1))) >> s
-}
-
 /// log2(e) in Q30.
 const LOG2_E_Q30: u64 = 1_549_082_005;
 /// ln 2 in Q30.
@@ -109,29 +104,31 @@ const INV_FACT_Q30: [i64; 8] = [
 const X_MAX_Q27: u32 = 31 << 27;
 
 /// exp(−x) for x ≥ 0 given in Q27 (unsigned), as a [`Kernel`] (Q30).
+///
+/// Every product is 32 × 32 → 64 bits (one `SMULL`/`UMULL` on a Cortex-M3/M4).
 pub const fn exp_neg_q27(x: u32) -> Kernel {
     if x >= X_MAX_Q27 {
         return Q(0);
     }
-    // y = x·log2(e), Q27; < 46.2·2^27.
+    // y = x·log2(e), Q27; < 44.8·2^27 < 2^33, so it is kept in u64.
     let y = ((x as u64) * LOG2_E_Q30 + (1 << 29)) >> 30;
-    let k = (y + (1 << 26)) >> 27; // round(y)
-    let f = y as i64 - ((k as i64) << 27); // |f| ≤ ½, Q27
-                                           // u = −f·ln2 in Q30, |u| ≤ 0.347.
-    let u = -mul_shift(f, LN2_Q30, 27);
-    // e^u by Horner, Q30.
-    let mut p = INV_FACT_Q30[7];
+    let k = (y + (1 << 26)) >> 27; // round(y) ≤ 45
+    let f = (y as i64 - ((k as i64) << 27)) as i32; // |f| ≤ 2^26 (½ in Q27)
+                                                    // u = −f·ln2 in Q30, |u| ≤ 0.347·2^30.
+    let u = -(((f as i64) * LN2_Q30 + (1 << 26)) >> 27) as i32;
+    // e^u by Horner in Q30; every partial value lies in (−2, 2) and fits an i32.
+    let mut p = INV_FACT_Q30[7] as i32;
     let mut i = 7;
     while i > 0 {
         i -= 1;
-        p = INV_FACT_Q30[i] + mul_shift(p, u, 30);
+        p = INV_FACT_Q30[i] as i32 + (((p as i64) * (u as i64) + (1 << 29)) >> 30) as i32;
     }
     // p ∈ (0.70, 1.42) in Q30; divide by 2^k with rounding.
-    if k >= 32 {
+    if k >= 31 {
         return Q(0);
     }
     let v = if k == 0 { p } else { (p + (1 << (k - 1))) >> k };
-    Q(v as i32)
+    Q(v)
 }
 
 /// Why a table has no fixed-point form.
@@ -199,38 +196,51 @@ impl<const N: usize, const D: usize> FixedModel<N, D> {
     }
 
     /// Eq. (10) at a standardised input, °/h, integer-only.
+    ///
+    /// Terms whose kernel argument reaches 31 (e^−31 = 3.4e-14) are skipped, so the cost
+    /// depends a little on the input; the budget command reports the mean over a recording.
     pub fn predict(&self, z: &[Z; D]) -> Dph {
-        // Σ aᵢ·kᵢ in Q40 (each product Q54 rounded down 14 bits), i64, saturating.
+        let gamma = i64::from(self.gamma.0);
+        // ‖z − zᵢ‖² (Q27) at which γ‖·‖² reaches 31: beyond it the term is 0. For γ > 0
+        // (validated tables) the cut is ≤ 31·2^51/γ_q24, and below it γ·d2 < 2^56.
+        let cut_q27 = if gamma > 0 {
+            (i64::from(X_MAX_Q27) << 24) / gamma
+        } else {
+            0 // γ ≤ 0: not a validated table; every term is skipped, f = b
+        };
+        // Σ aᵢ·kᵢ in Q40 (each Q54 product rounded down 14 bits). |term| < 2^47, so the
+        // sum of fewer than 2^16 terms cannot overflow an i64 (checked at compile time for
+        // every instantiated N by `N_FITS`).
+        let () = Self::N_FITS;
         let mut acc: i64 = 0;
         for (sv, a) in self.support.iter().zip(&self.alpha) {
-            // ‖z − zᵢ‖² in Q48, saturating.
+            // ‖z − zᵢ‖² in Q48; each difference saturates in i32 (a saturated one is ≥ 128,
+            // far outside every kernel), each square < 2^62, the sum saturates.
             let mut d2: i64 = 0;
             for d in 0..D {
-                let diff = i64::from(z[d].0) - i64::from(sv[d].0);
-                d2 = d2.saturating_add(diff.saturating_mul(diff));
+                let diff = i64::from(z[d].0.saturating_sub(sv[d].0));
+                d2 = d2.saturating_add(diff * diff);
             }
-            // x = γ·d2 in Q27: Q24·Q48 = Q72 → shift 45. Split to stay in i64: d2 → Q27 first
-            // (rounding 21 bits), then γ (Q24) · Q27 → Q51 → shift 24.
-            let d2_q27 = (d2 + (1 << 20)) >> 21;
-            // The product saturates: if it would overflow, x ≥ 2^39 in Q27, far above the clamp.
-            let x = d2_q27
-                .saturating_mul(i64::from(self.gamma.0))
-                .saturating_add(1 << 23)
-                >> 24;
-            let x = if x >= i64::from(X_MAX_Q27) || x < 0 {
-                X_MAX_Q27
-            } else {
-                x as u32
-            };
+            let d2_q27 = (d2 >> 21) + ((d2 >> 20) & 1); // round Q48 → Q27
+            if d2_q27 >= cut_q27 {
+                continue;
+            }
+            // x = γ·d2 in Q27 (Q24·Q27 >> 24) < 31·2^27.
+            let x = ((d2_q27 * gamma + (1 << 23)) >> 24) as u32;
             let k = exp_neg_q27(x);
-            let term = mul_shift(i64::from(a.0), i64::from(k.0), 14);
-            acc = acc.saturating_add(term);
+            acc += (i64::from(a.0) * i64::from(k.0) + (1 << 13)) >> 14;
         }
         // Q40 → Q24 with rounding, then + b, saturating into i32.
-        let sum = (acc.saturating_add(1 << 15)) >> 16;
+        let sum = (acc + (1 << 15)) >> 16;
         let sum = sum.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32;
         Q(sum).saturating_add(self.bias)
     }
+
+    /// Compile-time check that N terms of magnitude < 2^47 cannot overflow the i64 sum.
+    const N_FITS: () = assert!(
+        N < (1 << 16),
+        "FixedModel supports fewer than 65536 vectors"
+    );
 }
 
 #[cfg(test)]

@@ -105,6 +105,91 @@ fn main() -> anyhow::Result<()> {
         rows.push((n_sv, cost, size));
     }
     println!("* the committed default table (firmware/src/model_table.rs)");
+
+    // Fixed point: the same tables, `FixedModel::predict` timed in an RLG_FW_FIXED image on
+    // the Cortex-M4F and on the FPU-less Cortex-M3 (where the f32 step is soft-float).
+    println!();
+    println!(
+        "{:>5} {:>12} {:>9} {:>12} {:>9} {:>13} {:>9} {:>9} {:>7} {:>11}",
+        "N",
+        "fixed M4F",
+        "/SV",
+        "fixed M3",
+        "/SV",
+        "f32 step M3",
+        "/SV",
+        "flash M3",
+        "RAM M3",
+        "err fixed"
+    );
+    for n in [16usize, 32, 64, 128, 0] {
+        let table_file = (n > 0).then(|| dir.join(format!("table_{n}.rs")));
+        let mut fixed_instr = [0.0f64; 2];
+        let mut m3 = None;
+        for (slot, target) in [(0usize, None), (1, Some(budgets::M3_TARGET.to_string()))] {
+            let opts = ImageOptions {
+                table_file: table_file.clone(),
+                fixed_pass: true,
+                target: target.clone(),
+                ..Default::default()
+            };
+            let elf = dir.join(format!("firmware_fixed_{n}_{slot}.elf"));
+            budgets::build_image(&replay, &opts, &elf)?;
+            let run = if target.is_some() {
+                firmware::run_qemu_on(&elf, "mps2-an385", "cortex-m3", budgets::QEMU_TIMEOUT)?
+            } else {
+                firmware::run_qemu(&elf, budgets::QEMU_TIMEOUT)?
+            };
+            if run.exit_code != Some(0) {
+                bail!(
+                    "N={n} fixed: image exited with {:?}: {:#?}",
+                    run.exit_code,
+                    run.log
+                );
+            }
+            fixed_instr[slot] = budgets::fixed_cost(&run).context("fixed line")?;
+            if target.is_some() {
+                let c = budgets::run_cost(&run).context("cost lines")?;
+                m3 = Some((c.step, budgets::image_size(&elf)?));
+            }
+        }
+        let (n_sv, err) = if n == 0 {
+            let t = tests::default_model_table();
+            (t.support.len(), budgets::max_fixed_error_dph(t))
+        } else {
+            let t = budgets::synthetic_table(n, 2011);
+            let e = match n {
+                16 => budgets::sized::<16>(&t).and_then(|t| budgets::max_fixed_error_dph(&t)),
+                32 => budgets::sized::<32>(&t).and_then(|t| budgets::max_fixed_error_dph(&t)),
+                64 => budgets::sized::<64>(&t).and_then(|t| budgets::max_fixed_error_dph(&t)),
+                _ => budgets::sized::<128>(&t).and_then(|t| budgets::max_fixed_error_dph(&t)),
+            };
+            (n, e)
+        };
+        let nf = n_sv as f64;
+        let (m3_step, m3_size) = m3.context("M3 run")?;
+        println!(
+            "{:>5} {:>12.0} {:>9.1} {:>12.0} {:>9.1} {:>13.0} {:>9.1} {:>9} {:>7} {:>11.2e}",
+            if n == 0 {
+                format!("{n_sv}*")
+            } else {
+                n_sv.to_string()
+            },
+            fixed_instr[0],
+            fixed_instr[0] / nf,
+            fixed_instr[1],
+            fixed_instr[1] / nf,
+            m3_step,
+            m3_step / nf,
+            m3_size.flash - replay_bytes,
+            m3_size.static_ram,
+            err.unwrap_or(f64::NAN)
+        );
+    }
+    println!(
+        "fixed = FixedModel::predict only (Eq. 10, integer); f32 step M3 = the whole soft-float step;          flash M3 excludes the replay data and includes the fixed-point pass; err = max |fixed − f64|, °/h"
+    );
+    println!();
     println!(
         "units: instructions per call (SysTick ticks × {:.2} instructions/tick from the calibration loop, -icount shift=0); \
          bytes; errors = max |f32 − f64| of Eq. (10) over a 121×121 grid of the trained range, °/h",
