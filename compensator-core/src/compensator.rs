@@ -19,8 +19,9 @@
 //! Every output is finite: the raw rate is only passed through when it is finite, and the
 //! model's output is finite for clamped finite features and a validated table.
 
+use crate::features::FeatureBank;
 use crate::rate::{RateEstimate, RateEstimator};
-use crate::table::{Feature, ModelRef, ModelTable, TableError};
+use crate::table::{ModelRef, ModelTable, TableError};
 
 /// Bit set describing one output sample. `Status::OK` (no bit) means compensated normally.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -124,6 +125,7 @@ pub struct Compensator<'a, const D: usize> {
     table_ok: bool,
     table_error: Option<TableError>,
     rate: RateEstimator,
+    bank: FeatureBank<D>,
     skipped: u32,
     last_good_dph: f32,
 }
@@ -150,6 +152,7 @@ impl<'a, const D: usize> Compensator<'a, D> {
             table_ok: err.is_none(),
             table_error: err,
             rate: RateEstimator::new(model.spec.rate_filter),
+            bank: FeatureBank::new(model.spec.features, model.spec.rate_filter.dt_s),
             skipped: 0,
             last_good_dph: 0.0,
         }
@@ -165,12 +168,10 @@ impl<'a, const D: usize> Compensator<'a, D> {
         self.table_error
     }
 
-    /// The feature vector the model sees for a temperature estimate, before clamping.
+    /// The feature vector the model sees for a temperature estimate, before clamping, with
+    /// the recursive features ([`crate::features`]) at their current state.
     pub fn features(&self, temp_c: f32, est: &RateEstimate) -> [f32; D] {
-        core::array::from_fn(|d| match self.model.spec.features[d] {
-            Feature::TempC => temp_c,
-            Feature::TempRateCPerS => est.rate_c_per_s,
-        })
+        self.bank.values(temp_c, est)
     }
 
     fn temp_is_plausible(&self, temp_c: f32) -> bool {
@@ -219,7 +220,7 @@ impl<'a, const D: usize> Compensator<'a, D> {
             if est.warming_up {
                 status |= Status::WARMING_UP;
             }
-            let mut x = self.features(temp_c, &est);
+            let mut x = self.bank.update(temp_c, &est);
             let s = self.model.spec;
             for ((v, lo), hi) in x.iter_mut().zip(s.input_lo).zip(s.input_hi) {
                 // Written so that a NaN could never pass (it cannot reach here anyway).
@@ -234,8 +235,11 @@ impl<'a, const D: usize> Compensator<'a, D> {
             self.skipped = self.skipped.saturating_add(1);
             if self.skipped >= self.limits.max_skipped {
                 self.rate.reset();
+                self.bank.skip(&self.rate.estimate());
+                self.bank.reset();
             } else {
-                self.rate.skip();
+                let est = self.rate.skip();
+                self.bank.skip(&est);
             }
             None
         };
@@ -260,7 +264,7 @@ impl<'a, const D: usize> Compensator<'a, D> {
 mod tests {
     use super::*;
     use crate::rate::RateFilter;
-    use crate::table::{ModelSpec, ModelTable};
+    use crate::table::{Feature, ModelSpec, ModelTable};
     use proptest::prelude::*;
 
     /// A 2-input model whose correction is 0.01·z_T at the support vector: simple enough to
@@ -418,6 +422,34 @@ mod tests {
         let mut bad = good;
         bad.spec.bias_dph += 1e-3;
         assert!(matches!(bad.verify(), Err(TableError::Checksum { .. })));
+    }
+
+    /// A table on the recursive features: the compensator feeds the model T + τ·dT/dt and the
+    /// time since power-on computed from the same estimator, and the CRC covers τ.
+    #[test]
+    fn recursive_features_reach_the_model() {
+        let mut t = TABLE;
+        t.spec.features = [Feature::TempLeadC { tau_s: 100 }, Feature::TimeOnS];
+        t.spec.input_mean = [40.0, 500.0];
+        t.spec.input_inv_scale = [0.05, 0.002];
+        t.spec.input_lo = [0.0, 0.0];
+        t.spec.input_hi = [80.0, 1.0e6];
+        let t = t.sealed();
+        let mut other = t;
+        other.spec.features[0] = Feature::TempLeadC { tau_s: 101 };
+        assert_ne!(other.as_model().content_crc32(), t.crc32);
+
+        let mut c = Compensator::from_table(&t, SensorLimits::DEFAULT);
+        let mut est = RateEstimator::new(t.spec.rate_filter);
+        let m = t.as_model();
+        for k in 0..600u32 {
+            let temp = 20.0 + 0.01 * k as f32;
+            let e = est.update(temp);
+            let out = c.update(temp, -7.0);
+            let x = [temp + 100.0 * e.rate_c_per_s, k as f32];
+            let want = m.predict_dph(&x) - t.spec.reference_dph;
+            assert_eq!(out.correction_dph, want, "k={k}");
+        }
     }
 
     fn any_f32() -> impl Strategy<Value = f32> {

@@ -8,7 +8,8 @@
 //! the board, so both compute it identically. Every item is little-endian, in this order:
 //!
 //! 1. N (support vectors) and D (inputs), `u32` each;
-//! 2. each feature's code ([`feature_code`]), `u32` each;
+//! 2. each feature's code ([`feature_code`]), `u32` each, followed by its parameter (`u32`)
+//!    for parameterised features;
 //! 3. `input_mean`, `input_inv_scale`, `input_lo`, `input_hi`: D f32 bit patterns each;
 //! 4. `gamma`, `bias_dph`, `reference_dph`: f32 bit patterns;
 //! 5. the rate filter: `alpha`, `beta`, `dt_s` as f32 bit patterns, `warmup_samples` as `u32`;
@@ -23,12 +24,16 @@ use crate::table::{Feature, ModelRef};
 /// The CRC engine (bitwise, no table).
 const ENGINE: Crc<u32, NoTable> = Crc::<u32, NoTable>::new(&CRC_32_ISO_HDLC);
 
-/// The stable code of a feature in the checksummed stream (its position in the feature set
-/// as first published; never reused).
+/// The stable code of a feature in the checksummed stream (never reused). A parameterised
+/// feature's parameter follows its code as one more `u32`.
 pub const fn feature_code(f: Feature) -> u32 {
     match f {
         Feature::TempC => 0,
         Feature::TempRateCPerS => 1,
+        Feature::TempLeadC { .. } => 2,
+        Feature::TempGradLagCPerS { .. } => 3,
+        Feature::TempPlayC { .. } => 4,
+        Feature::TimeOnS => 5,
     }
 }
 
@@ -65,6 +70,9 @@ impl<const D: usize> ModelRef<'_, D> {
         put_u32(&mut d, u32::try_from(D).unwrap_or(u32::MAX));
         for f in s.features {
             put_u32(&mut d, feature_code(f));
+            if let Some((_, v)) = f.parameter() {
+                put_u32(&mut d, v);
+            }
         }
         put_f32s(&mut d, &s.input_mean);
         put_f32s(&mut d, &s.input_inv_scale);

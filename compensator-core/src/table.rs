@@ -7,7 +7,11 @@
 use crate::rate::RateFilter;
 
 /// One input feature of the model, computed on the board from the temperature stream.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+///
+/// Parameters are integers (seconds, milli-degrees) so that the type stays `Eq`/`Hash` and
+/// the table's text and CRC carry them exactly. The recursive state of each feature is in
+/// [`crate::features`]; its exact update rule is documented there.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum Feature {
@@ -15,23 +19,86 @@ pub enum Feature {
     TempC,
     /// Rate of change dT/dt from the recursive estimator ([`crate::rate`]), °C/s.
     TempRateCPerS,
+    /// Lead-corrected temperature T + τ·dT/dt, °C (sensor-lag correction), τ in s.
+    TempLeadC {
+        /// Lead time constant τ, s.
+        tau_s: u32,
+    },
+    /// Lagged gradient G with τ·dG/dt = −G + dT/dt, °C/s (gradient-lag term), τ in s.
+    TempGradLagCPerS {
+        /// Lag time constant τ, s.
+        tau_s: u32,
+    },
+    /// Play-operator (backlash) state of T with total width w, °C (hysteresis term).
+    TempPlayC {
+        /// Width w of the play band, m°C.
+        width_mc: u32,
+    },
+    /// Time since power-on (first sample), s (warm-up term).
+    TimeOnS,
 }
 
 impl Feature {
-    /// Stable name used in model files and exported tables.
+    /// Stable base name used in model files and exported tables (parameters are not part of
+    /// it; [`Feature::parse`] reads the full form written by `Display`).
     pub const fn name(self) -> &'static str {
         match self {
             Feature::TempC => "temp_c",
             Feature::TempRateCPerS => "temp_rate_c_per_s",
+            Feature::TempLeadC { .. } => "temp_lead_c",
+            Feature::TempGradLagCPerS { .. } => "temp_grad_lag_c_per_s",
+            Feature::TempPlayC { .. } => "temp_play_c",
+            Feature::TimeOnS => "time_on_s",
         }
     }
 
-    /// Inverse of [`Feature::name`].
+    /// The parameter's name and value, for parameterised features.
+    pub const fn parameter(self) -> Option<(&'static str, u32)> {
+        match self {
+            Feature::TempLeadC { tau_s } | Feature::TempGradLagCPerS { tau_s } => {
+                Some(("tau_s", tau_s))
+            }
+            Feature::TempPlayC { width_mc } => Some(("width_mc", width_mc)),
+            Feature::TempC | Feature::TempRateCPerS | Feature::TimeOnS => None,
+        }
+    }
+
+    /// Inverse of `Display`: `temp_c`, `temp_lead_c(tau_s=600)`, `temp_play_c(width_mc=150)`.
+    pub fn parse(spec: &str) -> Option<Self> {
+        let (base, param) = match spec.split_once('(') {
+            Some((b, rest)) => {
+                let inner = rest.strip_suffix(')')?;
+                let (k, v) = inner.split_once('=')?;
+                (b, Some((k, v.parse::<u32>().ok()?)))
+            }
+            None => (spec, None),
+        };
+        let f = match (base, param) {
+            ("temp_c", None) => Feature::TempC,
+            ("temp_rate_c_per_s", None) => Feature::TempRateCPerS,
+            ("time_on_s", None) => Feature::TimeOnS,
+            ("temp_lead_c", Some(("tau_s", v))) => Feature::TempLeadC { tau_s: v },
+            ("temp_grad_lag_c_per_s", Some(("tau_s", v))) if v > 0 => {
+                Feature::TempGradLagCPerS { tau_s: v }
+            }
+            ("temp_play_c", Some(("width_mc", v))) => Feature::TempPlayC { width_mc: v },
+            _ => return None,
+        };
+        Some(f)
+    }
+
+    /// Inverse of [`Feature::name`] for features without parameters, and of `Display` for
+    /// those with (so model files may name either form).
     pub fn from_name(name: &str) -> Option<Self> {
-        match name {
-            "temp_c" => Some(Feature::TempC),
-            "temp_rate_c_per_s" => Some(Feature::TempRateCPerS),
-            _ => None,
+        Self::parse(name)
+    }
+}
+
+impl core::fmt::Display for Feature {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self.parameter() {
+            Some((k, v)) => write!(f, "{}({k}={v})", self.name()),
+            None => f.write_str(self.name()),
         }
     }
 }

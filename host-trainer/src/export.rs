@@ -188,12 +188,16 @@ fn list(v: &[f32]) -> String {
     format!("[{}]", items.join(", "))
 }
 
-fn variant(f: Feature) -> Result<&'static str, ExportError> {
-    match f {
-        Feature::TempC => Ok("TempC"),
-        Feature::TempRateCPerS => Ok("TempRateCPerS"),
-        other => Err(ExportError::Feature(other.name().to_string())),
-    }
+fn variant(f: Feature) -> Result<String, ExportError> {
+    Ok(match f {
+        Feature::TempC => "TempC".into(),
+        Feature::TempRateCPerS => "TempRateCPerS".into(),
+        Feature::TempLeadC { tau_s } => format!("TempLeadC {{ tau_s: {tau_s} }}"),
+        Feature::TempGradLagCPerS { tau_s } => format!("TempGradLagCPerS {{ tau_s: {tau_s} }}"),
+        Feature::TempPlayC { width_mc } => format!("TempPlayC {{ width_mc: {width_mc} }}"),
+        Feature::TimeOnS => "TimeOnS".into(),
+        other => return Err(ExportError::Feature(other.to_string())),
+    })
 }
 
 fn render<const D: usize>(m: &ModelFile, command: &str) -> Result<String, ExportError> {

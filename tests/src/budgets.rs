@@ -288,31 +288,6 @@ pub fn run_cost(run: &QemuRun) -> Option<RunCost> {
     })
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn synthetic_tables_validate_and_are_deterministic() {
-        for n in [16, 128] {
-            let t = synthetic_table(n, 7);
-            t.as_model().validate().unwrap();
-            assert_eq!(t, synthetic_table(n, 7));
-            assert_ne!(t, synthetic_table(n, 8));
-        }
-    }
-
-    /// The f64 reference agrees with the f32 evaluator to f32 accuracy (so it is evaluating
-    /// the same function), but is not identical to it (so it is an independent computation).
-    #[test]
-    fn f64_reference_is_the_same_function() {
-        let t = synthetic_table(64, 1);
-        let (e_libm, e_fast) = max_errors_dph(&t.as_model());
-        assert!(e_libm < 1e-5 && e_fast < 1e-5, "{e_libm} {e_fast}");
-        assert!(e_libm > 0.0);
-    }
-}
-
 /// Largest |fixed-point − f64 reference| of Eq. (10) over the same 121 × 121 grid as
 /// [`max_errors_dph`], °/h; None when `t` does not have exactly `N` vectors or no Q form.
 pub fn max_fixed_error_dph<const N: usize>(t: &ModelTable<N, 2>) -> Option<f64> {
@@ -356,4 +331,29 @@ pub fn fixed_cost(run: &QemuRun) -> Option<f64> {
     let per_tick = log_field(cal, "instructions")? as f64 / log_field(cal, "ticks")? as f64;
     let f = line(run, "fixed:")?;
     Some(log_field(f, "predict_total")? as f64 / log_field(f, "calls")? as f64 * per_tick)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn synthetic_tables_validate_and_are_deterministic() {
+        for n in [16, 128] {
+            let t = synthetic_table(n, 7);
+            t.as_model().validate().unwrap();
+            assert_eq!(t, synthetic_table(n, 7));
+            assert_ne!(t, synthetic_table(n, 8));
+        }
+    }
+
+    /// The f64 reference agrees with the f32 evaluator to f32 accuracy (so it is evaluating
+    /// the same function), but is not identical to it (so it is an independent computation).
+    #[test]
+    fn f64_reference_is_the_same_function() {
+        let t = synthetic_table(64, 1);
+        let (e_libm, e_fast) = max_errors_dph(&t.as_model());
+        assert!(e_libm < 1e-5 && e_fast < 1e-5, "{e_libm} {e_fast}");
+        assert!(e_libm > 0.0);
+    }
 }

@@ -6,9 +6,10 @@
 //! identical to the host); only Eq. (10) is integer ([`FixedModel::predict`]).
 
 use crate::crc::crc32;
+use crate::features::FeatureBank;
 use crate::fixed::{Dph, FixedModel, Q, Z};
 use crate::rate::RateEstimator;
-use crate::table::{Feature, ModelRef};
+use crate::table::ModelRef;
 
 /// Plausible sensor range for the trace, °C (as `SensorLimits::DEFAULT`).
 const TEMP_MIN_C: f32 = -60.0;
@@ -19,6 +20,7 @@ const TEMP_MAX_C: f32 = 130.0;
 pub struct FixedTrace<'a, const D: usize> {
     model: ModelRef<'a, D>,
     est: RateEstimator,
+    bank: FeatureBank<D>,
     digest: u32,
     count: u32,
 }
@@ -29,6 +31,7 @@ impl<'a, const D: usize> FixedTrace<'a, D> {
         FixedTrace {
             model,
             est: RateEstimator::new(model.spec.rate_filter),
+            bank: FeatureBank::new(model.spec.features, model.spec.rate_filter.dt_s),
             digest: 0,
             count: 0,
         }
@@ -38,16 +41,15 @@ impl<'a, const D: usize> FixedTrace<'a, D> {
     /// or None when the sample is implausible (skipped, as the compensator does).
     pub fn features(&mut self, temp_c: f32) -> Option<[Z; D]> {
         if !(TEMP_MIN_C..=TEMP_MAX_C).contains(&temp_c) {
-            self.est.skip();
+            let e = self.est.skip();
+            self.bank.skip(&e);
             return None;
         }
         let e = self.est.update(temp_c);
         let s = self.model.spec;
+        let raw = self.bank.update(temp_c, &e);
         let x: [f32; D] = core::array::from_fn(|d| {
-            let v = match s.features[d] {
-                Feature::TempC => temp_c,
-                Feature::TempRateCPerS => e.rate_c_per_s,
-            };
+            let v = raw[d];
             if v > s.input_hi[d] {
                 s.input_hi[d]
             } else if v >= s.input_lo[d] {
