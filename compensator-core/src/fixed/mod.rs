@@ -85,10 +85,15 @@ impl<const F: u32> Q<F> {
     }
 }
 
+/// The high word of a·b rounded to nearest: (a·b + 2^31) >> 32.
+const fn mul_hi(a: i32, b: i32) -> i32 {
+    (((a as i64) * (b as i64) + (1 << 31)) >> 32) as i32
+}
+
 /// log2(e) in Q30.
 const LOG2_E_Q30: u64 = 1_549_082_005;
-/// ln 2 in Q30.
-const LN2_Q30: i64 = 744_261_118;
+/// ln 2 in Q32.
+const LN2_Q32: i64 = 2_977_044_472;
 /// 1/n! in Q30, n = 0..=7: round(2^30/n!).
 const INV_FACT_Q30: [i64; 8] = [
     1_073_741_824,
@@ -114,15 +119,20 @@ pub const fn exp_neg_q27(x: u32) -> Kernel {
     let y = ((x as u64) * LOG2_E_Q30 + (1 << 29)) >> 30;
     let k = (y + (1 << 26)) >> 27; // round(y) ≤ 45
     let f = (y as i64 - ((k as i64) << 27)) as i32; // |f| ≤ 2^26 (½ in Q27)
-                                                    // u = −f·ln2 in Q30, |u| ≤ 0.347·2^30.
-    let u = -(((f as i64) * LN2_Q30 + (1 << 26)) >> 27) as i32;
-    // e^u by Horner in Q30; every partial value lies in (−2, 2) and fits an i32.
-    let mut p = INV_FACT_Q30[7] as i32;
-    let mut i = 7;
-    while i > 0 {
-        i -= 1;
-        p = INV_FACT_Q30[i] as i32 + (((p as i64) * (u as i64) + (1 << 29)) >> 30) as i32;
-    }
+                                                    // u = −f·ln2 in Q32, |u| ≤ 0.347·2^32 < 2^31.
+    let u = -(((f as i64) * LN2_Q32 + (1 << 26)) >> 27) as i32;
+    // e^u by Horner in Q30: p·u is Q62, its high word (>> 32, rounded) is Q30 again — one
+    // multiply-high per step. Every partial value lies in (−2, 2) and fits an i32.
+    // Written out: a loop over the coefficients is not unrolled at opt-level "s".
+    let c = INV_FACT_Q30;
+    let mut p = c[7] as i32;
+    p = c[6] as i32 + mul_hi(p, u);
+    p = c[5] as i32 + mul_hi(p, u);
+    p = c[4] as i32 + mul_hi(p, u);
+    p = c[3] as i32 + mul_hi(p, u);
+    p = c[2] as i32 + mul_hi(p, u);
+    p = c[1] as i32 + mul_hi(p, u);
+    p = c[0] as i32 + mul_hi(p, u);
     // p ∈ (0.70, 1.42) in Q30; divide by 2^k with rounding.
     if k >= 31 {
         return Q(0);
