@@ -1,7 +1,8 @@
 //! The 1 Hz compensation step: (temperature °C, gyro rate °/h) → compensated rate + status.
 //!
 //! Rules, in order of precedence (each sets its [`Status`] bit):
-//! 1. Table invalid (failed [`crate::ModelRef::validate`]): the raw rate passes through,
+//! 1. Table invalid (failed [`crate::ModelRef::validate`], or, for a compensator built with
+//!    [`Compensator::from_table`], a CRC-32 mismatch): the raw rate passes through,
 //!    `TABLE_FAULT`; nothing else is evaluated.
 //! 2. Gyro rate non-finite or beyond `rate_limit_dph`: the last good compensated rate is held
 //!    (0 before the first), `GYRO_FAULT`. The temperature path still runs.
@@ -18,8 +19,9 @@
 //! Every output is finite: the raw rate is only passed through when it is finite, and the
 //! model's output is finite for clamped finite features and a validated table.
 
+use crate::features::FeatureBank;
 use crate::rate::{RateEstimate, RateEstimator};
-use crate::table::{Feature, ModelRef};
+use crate::table::{ModelRef, ModelTable, TableError};
 
 /// Bit set describing one output sample. `Status::OK` (no bit) means compensated normally.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -121,20 +123,36 @@ pub struct Compensator<'a, const D: usize> {
     model: ModelRef<'a, D>,
     limits: SensorLimits,
     table_ok: bool,
+    table_error: Option<TableError>,
     rate: RateEstimator,
+    bank: FeatureBank<D>,
     skipped: u32,
     last_good_dph: f32,
 }
 
 impl<'a, const D: usize> Compensator<'a, D> {
     /// A compensator for `model`; the table is validated once here.
+    /// No CRC is checked here (a [`ModelRef`] carries none; host-built models need none); the
+    /// board uses [`Compensator::from_table`].
     pub fn new(model: ModelRef<'a, D>, limits: SensorLimits) -> Self {
-        let table_ok = model.validate().is_ok();
+        Self::with_check(model, limits, model.validate().err())
+    }
+
+    /// A compensator for a flashed table: the stored CRC-32 and then the content are checked
+    /// once here ([`ModelTable::verify`]); on any failure every sample is `TABLE_FAULT` with
+    /// the raw rate passed through, and [`Compensator::table_error`] says why.
+    pub fn from_table<const N: usize>(table: &'a ModelTable<N, D>, limits: SensorLimits) -> Self {
+        Self::with_check(table.as_model(), limits, table.verify().err())
+    }
+
+    fn with_check(model: ModelRef<'a, D>, limits: SensorLimits, err: Option<TableError>) -> Self {
         Compensator {
             model,
             limits,
-            table_ok,
+            table_ok: err.is_none(),
+            table_error: err,
             rate: RateEstimator::new(model.spec.rate_filter),
+            bank: FeatureBank::new(model.spec.features, model.spec.rate_filter.dt_s),
             skipped: 0,
             last_good_dph: 0.0,
         }
@@ -145,12 +163,15 @@ impl<'a, const D: usize> Compensator<'a, D> {
         self.table_ok
     }
 
-    /// The feature vector the model sees for a temperature estimate, before clamping.
+    /// Why the table was rejected, if it was.
+    pub const fn table_error(&self) -> Option<TableError> {
+        self.table_error
+    }
+
+    /// The feature vector the model sees for a temperature estimate, before clamping, with
+    /// the recursive features ([`crate::features`]) at their current state.
     pub fn features(&self, temp_c: f32, est: &RateEstimate) -> [f32; D] {
-        core::array::from_fn(|d| match self.model.spec.features[d] {
-            Feature::TempC => temp_c,
-            Feature::TempRateCPerS => est.rate_c_per_s,
-        })
+        self.bank.values(temp_c, est)
     }
 
     fn temp_is_plausible(&self, temp_c: f32) -> bool {
@@ -199,7 +220,7 @@ impl<'a, const D: usize> Compensator<'a, D> {
             if est.warming_up {
                 status |= Status::WARMING_UP;
             }
-            let mut x = self.features(temp_c, &est);
+            let mut x = self.bank.update(temp_c, &est);
             let s = self.model.spec;
             for ((v, lo), hi) in x.iter_mut().zip(s.input_lo).zip(s.input_hi) {
                 // Written so that a NaN could never pass (it cannot reach here anyway).
@@ -214,8 +235,11 @@ impl<'a, const D: usize> Compensator<'a, D> {
             self.skipped = self.skipped.saturating_add(1);
             if self.skipped >= self.limits.max_skipped {
                 self.rate.reset();
+                self.bank.skip(&self.rate.estimate());
+                self.bank.reset();
             } else {
-                self.rate.skip();
+                let est = self.rate.skip();
+                self.bank.skip(&est);
             }
             None
         };
@@ -240,7 +264,7 @@ impl<'a, const D: usize> Compensator<'a, D> {
 mod tests {
     use super::*;
     use crate::rate::RateFilter;
-    use crate::table::{ModelSpec, ModelTable};
+    use crate::table::{Feature, ModelSpec, ModelTable};
     use proptest::prelude::*;
 
     /// A 2-input model whose correction is 0.01·z_T at the support vector: simple enough to
@@ -264,6 +288,7 @@ mod tests {
         },
         support: [[-1.0, 0.0], [0.0, 0.0], [1.0, 0.5]],
         alpha_dph: [-0.01, 0.002, 0.01],
+        crc32: 0,
     };
 
     fn comp() -> Compensator<'static, 2> {
@@ -367,6 +392,64 @@ mod tests {
         assert_eq!(out.rate_dph, -7.0);
         let out = c.update(30.0, f32::NAN);
         assert!(out.rate_dph.is_finite());
+    }
+
+    /// A flipped bit in one coefficient of a sealed table is caught by the CRC even though the
+    /// corrupted table is otherwise valid (finite, right shape), and the compensator then passes
+    /// the raw rate through with `TABLE_FAULT` only.
+    #[test]
+    fn corrupted_coefficient_is_a_table_fault() {
+        let good = TABLE.sealed();
+        let c = Compensator::from_table(&good, SensorLimits::DEFAULT);
+        assert!(c.table_ok() && c.table_error().is_none());
+        for (k, bit) in [(0usize, 0u32), (1, 17), (2, 31)] {
+            let mut bad = good;
+            bad.alpha_dph[k] = f32::from_bits(bad.alpha_dph[k].to_bits() ^ (1 << bit));
+            assert!(bad.as_model().validate().is_ok(), "still a valid shape");
+            let mut c = Compensator::from_table(&bad, SensorLimits::DEFAULT);
+            assert!(
+                matches!(c.table_error(), Some(TableError::Checksum { stored, .. }) if stored == good.crc32),
+                "{:?}",
+                c.table_error()
+            );
+            for _ in 0..5 {
+                let out = c.update(30.0, -7.0);
+                assert_eq!(out.status, Status::TABLE_FAULT);
+                assert_eq!((out.rate_dph, out.correction_dph), (-7.0, 0.0));
+            }
+        }
+        // A stale stored CRC (any content change, e.g. the bias) is caught the same way.
+        let mut bad = good;
+        bad.spec.bias_dph += 1e-3;
+        assert!(matches!(bad.verify(), Err(TableError::Checksum { .. })));
+    }
+
+    /// A table on the recursive features: the compensator feeds the model T + τ·dT/dt and the
+    /// time since power-on computed from the same estimator, and the CRC covers τ.
+    #[test]
+    fn recursive_features_reach_the_model() {
+        let mut t = TABLE;
+        t.spec.features = [Feature::TempLeadC { tau_s: 100 }, Feature::TimeOnS];
+        t.spec.input_mean = [40.0, 500.0];
+        t.spec.input_inv_scale = [0.05, 0.002];
+        t.spec.input_lo = [0.0, 0.0];
+        t.spec.input_hi = [80.0, 1.0e6];
+        let t = t.sealed();
+        let mut other = t;
+        other.spec.features[0] = Feature::TempLeadC { tau_s: 101 };
+        assert_ne!(other.as_model().content_crc32(), t.crc32);
+
+        let mut c = Compensator::from_table(&t, SensorLimits::DEFAULT);
+        let mut est = RateEstimator::new(t.spec.rate_filter);
+        let m = t.as_model();
+        for k in 0..600u32 {
+            let temp = 20.0 + 0.01 * k as f32;
+            let e = est.update(temp);
+            let out = c.update(temp, -7.0);
+            let x = [temp + 100.0 * e.rate_c_per_s, k as f32];
+            let want = m.predict_dph(&x) - t.spec.reference_dph;
+            assert_eq!(out.correction_dph, want, "k={k}");
+        }
     }
 
     fn any_f32() -> impl Strategy<Value = f32> {

@@ -8,12 +8,20 @@
 //! through and reports what it did in a [`Status`] bit set.
 //!
 //! * [`table`]: the exported model table and its validation.
+//! * [`features`]: recursive lead, lagged-gradient, play and time-on features.
+//! * [`fastexp`]: a faster kernel exp, offered with its measured accuracy cost.
+//! * [`fixed`]: integer-only evaluation of Eq. (10) for FPU-less boards.
+//! * [`crc`]: the table's CRC-32, computed at export and checked at boot.
 //! * [`lssvm`]: f32 evaluation of Eq. (10).
 //! * [`rate`]: the recursive dT/dt estimator shared by the trainer and the board.
 //! * [`compensator`]: the 1 Hz update that turns (temperature, gyro rate) into a compensated rate.
 #![cfg_attr(not(test), no_std)]
 
 pub mod compensator;
+pub mod crc;
+pub mod fastexp;
+pub mod features;
+pub mod fixed;
 pub mod lssvm;
 pub mod rate;
 pub mod table;

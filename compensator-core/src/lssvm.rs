@@ -35,6 +35,14 @@ impl<const D: usize> ModelRef<'_, D> {
     /// summation would then lose the 1e-5 °/h agreement budget. It costs four adds per vector.
     #[inline]
     pub fn predict_standardised_dph(&self, z: &[f32; D]) -> f32 {
+        self.predict_standardised_dph_with(z, libm::expf)
+    }
+
+    /// Eq. (10) at a standardised feature vector with another exp for the kernel: `exp` is
+    /// called with −γ‖z − zᵢ‖² ≤ 0 (e.g. `|v| crate::fastexp::exp_neg(-v)`). Same summation as
+    /// [`ModelRef::predict_standardised_dph`], which is this with `libm::expf`.
+    #[inline]
+    pub fn predict_standardised_dph_with(&self, z: &[f32; D], exp: impl Fn(f32) -> f32) -> f32 {
         let gamma = self.spec.gamma;
         let mut sum = 0.0f32;
         let mut carry = 0.0f32;
@@ -44,7 +52,7 @@ impl<const D: usize> ModelRef<'_, D> {
                 let diff = z[d] - sv[d];
                 d2 += diff * diff;
             }
-            let term = a * libm::expf(-gamma * d2);
+            let term = a * exp(-gamma * d2);
             let t = sum + term;
             if libm::fabsf(sum) >= libm::fabsf(term) {
                 carry += (sum - t) + term;
@@ -83,6 +91,7 @@ mod tests {
             spec: spec(),
             support: [[-1.0], [1.0]],
             alpha_dph: [0.25, -0.5],
+            crc32: 0,
         };
         let m = table.as_model();
         m.validate().unwrap();
@@ -100,6 +109,7 @@ mod tests {
             spec: spec(),
             support: [[0.0], [0.0], [0.0]],
             alpha_dph: [1.0e4, 1.0e-3, -1.0e4],
+            crc32: 0,
         };
         let got = table.as_model().predict_standardised_dph(&[0.0]) + 7.0;
         assert!((got - 1.0e-3).abs() < 1e-6, "{got}");

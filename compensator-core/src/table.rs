@@ -7,7 +7,11 @@
 use crate::rate::RateFilter;
 
 /// One input feature of the model, computed on the board from the temperature stream.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+///
+/// Parameters are integers (seconds, milli-degrees) so that the type stays `Eq`/`Hash` and
+/// the table's text and CRC carry them exactly. The recursive state of each feature is in
+/// [`crate::features`]; its exact update rule is documented there.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum Feature {
@@ -15,23 +19,86 @@ pub enum Feature {
     TempC,
     /// Rate of change dT/dt from the recursive estimator ([`crate::rate`]), °C/s.
     TempRateCPerS,
+    /// Lead-corrected temperature T + τ·dT/dt, °C (sensor-lag correction), τ in s.
+    TempLeadC {
+        /// Lead time constant τ, s.
+        tau_s: u32,
+    },
+    /// Lagged gradient G with τ·dG/dt = −G + dT/dt, °C/s (gradient-lag term), τ in s.
+    TempGradLagCPerS {
+        /// Lag time constant τ, s.
+        tau_s: u32,
+    },
+    /// Play-operator (backlash) state of T with total width w, °C (hysteresis term).
+    TempPlayC {
+        /// Width w of the play band, m°C.
+        width_mc: u32,
+    },
+    /// Time since power-on (first sample), s (warm-up term).
+    TimeOnS,
 }
 
 impl Feature {
-    /// Stable name used in model files and exported tables.
+    /// Stable base name used in model files and exported tables (parameters are not part of
+    /// it; [`Feature::parse`] reads the full form written by `Display`).
     pub const fn name(self) -> &'static str {
         match self {
             Feature::TempC => "temp_c",
             Feature::TempRateCPerS => "temp_rate_c_per_s",
+            Feature::TempLeadC { .. } => "temp_lead_c",
+            Feature::TempGradLagCPerS { .. } => "temp_grad_lag_c_per_s",
+            Feature::TempPlayC { .. } => "temp_play_c",
+            Feature::TimeOnS => "time_on_s",
         }
     }
 
-    /// Inverse of [`Feature::name`].
+    /// The parameter's name and value, for parameterised features.
+    pub const fn parameter(self) -> Option<(&'static str, u32)> {
+        match self {
+            Feature::TempLeadC { tau_s } | Feature::TempGradLagCPerS { tau_s } => {
+                Some(("tau_s", tau_s))
+            }
+            Feature::TempPlayC { width_mc } => Some(("width_mc", width_mc)),
+            Feature::TempC | Feature::TempRateCPerS | Feature::TimeOnS => None,
+        }
+    }
+
+    /// Inverse of `Display`: `temp_c`, `temp_lead_c(tau_s=600)`, `temp_play_c(width_mc=150)`.
+    pub fn parse(spec: &str) -> Option<Self> {
+        let (base, param) = match spec.split_once('(') {
+            Some((b, rest)) => {
+                let inner = rest.strip_suffix(')')?;
+                let (k, v) = inner.split_once('=')?;
+                (b, Some((k, v.parse::<u32>().ok()?)))
+            }
+            None => (spec, None),
+        };
+        let f = match (base, param) {
+            ("temp_c", None) => Feature::TempC,
+            ("temp_rate_c_per_s", None) => Feature::TempRateCPerS,
+            ("time_on_s", None) => Feature::TimeOnS,
+            ("temp_lead_c", Some(("tau_s", v))) => Feature::TempLeadC { tau_s: v },
+            ("temp_grad_lag_c_per_s", Some(("tau_s", v))) if v > 0 => {
+                Feature::TempGradLagCPerS { tau_s: v }
+            }
+            ("temp_play_c", Some(("width_mc", v))) => Feature::TempPlayC { width_mc: v },
+            _ => return None,
+        };
+        Some(f)
+    }
+
+    /// Inverse of [`Feature::name`] for features without parameters, and of `Display` for
+    /// those with (so model files may name either form).
     pub fn from_name(name: &str) -> Option<Self> {
-        match name {
-            "temp_c" => Some(Feature::TempC),
-            "temp_rate_c_per_s" => Some(Feature::TempRateCPerS),
-            _ => None,
+        Self::parse(name)
+    }
+}
+
+impl core::fmt::Display for Feature {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self.parameter() {
+            Some((k, v)) => write!(f, "{}({k}={v})", self.name()),
+            None => f.write_str(self.name()),
         }
     }
 }
@@ -71,6 +138,9 @@ pub struct ModelTable<const N: usize, const D: usize> {
     pub support: [[f32; D]; N],
     /// Coefficients a_i of Eq. (10), °/h.
     pub alpha_dph: [f32; N],
+    /// CRC-32 of the numeric content above, computed by the exporter (stream and algorithm:
+    /// [`crate::crc`]); checked at boot by [`ModelTable::verify`].
+    pub crc32: u32,
 }
 
 impl<const N: usize, const D: usize> ModelTable<N, D> {
@@ -81,6 +151,26 @@ impl<const N: usize, const D: usize> ModelTable<N, D> {
             support: &self.support,
             alpha_dph: &self.alpha_dph,
         }
+    }
+
+    /// The table with `crc32` set to the checksum of its content (for tables built in code,
+    /// such as tests and synthetic benchmark tables; exported tables carry it already).
+    pub fn sealed(mut self) -> Self {
+        self.crc32 = self.as_model().content_crc32();
+        self
+    }
+
+    /// Checks the stored CRC against the content, then [`ModelRef::validate`]: everything the
+    /// board checks once at boot before trusting the table.
+    pub fn verify(&self) -> Result<(), TableError> {
+        let computed = self.as_model().content_crc32();
+        if computed != self.crc32 {
+            return Err(TableError::Checksum {
+                stored: self.crc32,
+                computed,
+            });
+        }
+        self.as_model().validate()
     }
 }
 
@@ -109,6 +199,14 @@ pub enum TableError {
     Invalid,
     /// The dT/dt filter gains are outside the stable region.
     RateFilter,
+    /// The stored CRC-32 does not match the table's content (corrupted flash or a table
+    /// edited after export).
+    Checksum {
+        /// CRC-32 stored in the table.
+        stored: u32,
+        /// CRC-32 computed over the content at check time.
+        computed: u32,
+    },
 }
 
 impl core::fmt::Display for TableError {
@@ -118,6 +216,12 @@ impl core::fmt::Display for TableError {
             TableError::NonFinite => "table holds a NaN or infinite number",
             TableError::Invalid => "table has a non-positive scale or gamma, or an empty range",
             TableError::RateFilter => "dT/dt filter gains are outside the stable region",
+            TableError::Checksum { stored, computed } => {
+                return write!(
+                    f,
+                    "table CRC-32 mismatch: stored {stored:#010x}, computed {computed:#010x}"
+                )
+            }
         })
     }
 }

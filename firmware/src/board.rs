@@ -1,14 +1,17 @@
 //! Board-only code: entry point, exit paths, SysTick cost measurement, semihosting output.
 
+use core::hint::black_box;
 use core::sync::atomic::{AtomicBool, Ordering};
 
-use compensator_core::SensorLimits;
+use compensator_core::fixed::{FixedModel, FixedTrace};
+use compensator_core::{fastexp, ModelTable, SensorLimits, TableError};
 use cortex_m::peripheral::syst::SystClkSource;
 use cortex_m::peripheral::SYST;
 use cortex_m_rt::{entry, exception, ExceptionFrame};
 use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
 use cortex_m_semihosting::hio::{self, HostStream};
-use defmt_semihosting as _; // the global defmt logger
+use defmt_semihosting as _;
+use firmware::sensor::TemperatureSensor; // the global defmt logger
 
 use firmware::control::ControlLoop;
 use firmware::model_table::MODEL;
@@ -29,6 +32,41 @@ const CALIBRATION_LOOPS: u32 = 20_000;
 /// Build-time fault injection for the exit-path test (`RLG_FW_FAULT=panic|hardfault`);
 /// unset in every normal build.
 const INJECT_FAULT: Option<&str> = option_env!("RLG_FW_FAULT");
+
+/// `RLG_FW_FAULT=table`: the image runs a copy of the table with one bit of one coefficient
+/// flipped and the stored CRC left as exported, to test the boot-time check.
+const CORRUPT_TABLE: bool = match INJECT_FAULT {
+    Some(v) => bytes_eq(v.as_bytes(), b"table"),
+    None => false,
+};
+
+/// Byte-wise equality usable in a constant (`str` cannot be compared in const context).
+const fn bytes_eq(a: &[u8], b: &[u8]) -> bool {
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut i = 0;
+    while i < a.len() {
+        if a[i] != b[i] {
+            return false;
+        }
+        i += 1;
+    }
+    true
+}
+
+/// `t` with the lowest mantissa bit of its middle coefficient flipped: a still-finite, still
+/// well-shaped table that only the CRC can tell from the original.
+const fn corrupted<const N: usize, const D: usize>(mut t: ModelTable<N, D>) -> ModelTable<N, D> {
+    let k = N / 2;
+    t.alpha_dph[k] = f32::from_bits(t.alpha_dph[k].to_bits() ^ 1);
+    t
+}
+
+/// `RLG_FW_FIXED` (any value): after the f32 replay, the image replays the temperatures again
+/// through the integer evaluator ([`compensator_core::fixed`]) and logs the digest of its
+/// outputs and its cost, for the bit-for-bit comparison with the host and the budgets.
+const FIXED_PASS: bool = option_env!("RLG_FW_FIXED").is_some();
 
 /// `f`'s result and the SysTick ticks it took (SysTick counts down).
 fn timed<T>(f: impl FnOnce() -> T) -> (T, u32) {
@@ -52,8 +90,74 @@ fn fail() -> ! {
     }
 }
 
+/// Stack high-water mark: the stack below the entry frame is painted with a pattern at boot,
+/// and at the end the lowest overwritten word tells how deep the stack went.
+mod stack {
+    use core::ptr::{addr_of, read_volatile, write_volatile};
+
+    /// The paint pattern; a stack word equal to it by chance would make the figure too low by
+    /// at most the words below it, which is why the scan looks for the lowest changed word.
+    const PAINT: u32 = 0xC5AC_CE55;
+    /// Painted window below the stack pointer at boot, bytes; a deeper stack reads as "at
+    /// least" this much.
+    pub const WINDOW: usize = 32 * 1024;
+    /// Words left unpainted just below the stack pointer (the painting loop's own spills).
+    const GUARD: usize = 64;
+
+    extern "C" {
+        static _stack_start: u32;
+        static _stack_end: u32;
+    }
+
+    /// The painted region: `[lo, hi)` and the stack top.
+    pub struct Painted {
+        lo: usize,
+        hi: usize,
+        top: usize,
+    }
+
+    /// Paints the free stack below the current stack pointer.
+    #[allow(unsafe_code)] // raw writes to stack memory no Rust object owns yet
+    pub fn paint() -> Painted {
+        // Only the addresses of the linker symbols are taken (safe since Rust 1.82).
+        let (top, end) = (
+            addr_of!(_stack_start) as usize,
+            addr_of!(_stack_end) as usize,
+        );
+        let sp = cortex_m::register::msp::read() as usize;
+        let hi = sp.saturating_sub(GUARD) & !3;
+        let lo = end
+            .max(sp.saturating_sub(WINDOW))
+            .next_multiple_of(4)
+            .min(hi);
+        let mut a = lo;
+        while a < hi {
+            // SAFETY: [lo, hi) lies between the end of static RAM and below the live stack
+            // frame, word aligned; nothing else uses it (no interrupts are enabled).
+            unsafe { write_volatile(a as *mut u32, PAINT) };
+            a += 4;
+        }
+        Painted { lo, hi, top }
+    }
+
+    /// Deepest stack use since [`paint`], bytes below the stack top.
+    #[allow(unsafe_code)] // reads of the painted region
+    pub fn high_water(p: &Painted) -> u32 {
+        let mut a = p.lo;
+        while a < p.hi {
+            // SAFETY: the painted region, word aligned, still RAM.
+            if unsafe { read_volatile(a as *const u32) } != PAINT {
+                break;
+            }
+            a += 4;
+        }
+        u32::try_from(p.top - a).unwrap_or(u32::MAX)
+    }
+}
+
 #[entry]
 fn main() -> ! {
+    let painted = stack::paint();
     let Some(cp) = cortex_m::Peripherals::take() else {
         fail()
     };
@@ -93,9 +197,23 @@ fn main() -> ! {
     }
 
     let (temp, rate) = replay::channels(data);
-    let mut ctl = ControlLoop::new(&MODEL, SensorLimits::DEFAULT, temp, rate);
-    if !ctl.table_ok() {
-        defmt::warn!("model table failed validation: raw rates pass through (TABLE_FAULT)");
+    let table = if CORRUPT_TABLE {
+        const { &corrupted(MODEL) }
+    } else {
+        &MODEL
+    };
+    let mut ctl = ControlLoop::new(table, SensorLimits::DEFAULT, temp, rate);
+    match ctl.table_error() {
+        None => defmt::info!("model table CRC-32 {=u32:#010x} verified", table.crc32),
+        Some(TableError::Checksum { stored, computed }) => defmt::error!(
+            "model table CRC-32 mismatch: stored {=u32:#010x}, computed {=u32:#010x}; raw rates pass through (TABLE_FAULT)",
+            stored,
+            computed
+        ),
+        Some(e) => defmt::error!(
+            "model table failed validation: {}; raw rates pass through (TABLE_FAULT)",
+            e
+        ),
     }
     let Ok(stderr) = hio::hstderr() else {
         defmt::error!("semihosting stderr unavailable");
@@ -103,13 +221,66 @@ fn main() -> ! {
     };
     let mut out: LineWriter<Stderr, 2000> = LineWriter::begin(Stderr(stderr), count);
     let mut cost = Cost::default();
+    // The kernel sum alone, per exp choice, at each sample's (clamped) temperature and the
+    // mean of the other features: what a different exp would save on each update. Measured
+    // after the step, outside its timing, so the step figures are those of the shipped path.
+    let model = table.as_model();
+    let (mut k_libm, mut k_fast) = (Cost::default(), Cost::default());
+    let mut fast_dev = 0.0f32;
     for _ in 0..count {
         // The replay plays the role of the 1 Hz timer: no waiting between samples.
         let (record, t) = timed(|| ctl.step());
         cost.add(t);
         out.record(&record);
+
+        let s = model.spec;
+        let t_c = record.temp_c;
+        let t_c = if t_c >= s.input_lo[0] && t_c <= s.input_hi[0] {
+            t_c
+        } else {
+            s.input_mean[0]
+        };
+        let x: [f32; _] = core::array::from_fn(|d| if d == 0 { t_c } else { s.input_mean[d] });
+        let z = model.standardise(&x);
+        let (a, t) = timed(|| model.predict_standardised_dph(black_box(&z)));
+        k_libm.add(t);
+        let (b, t) =
+            timed(|| model.predict_standardised_dph_with(black_box(&z), |v| fastexp::exp_neg(-v)));
+        k_fast.add(t);
+        let dev = (black_box(a) - black_box(b)).abs();
+        if dev > fast_dev {
+            fast_dev = dev;
+        }
     }
     let (_, written) = out.end();
+
+    if FIXED_PASS {
+        let fixed = const {
+            &match FixedModel::from_table(&MODEL) {
+                Ok(f) => f,
+                Err(_) => panic!("the model table has no Q24 form"),
+            }
+        };
+        let (temps, _) = replay::channels(data);
+        let mut trace = FixedTrace::new(table.as_model());
+        let mut fcost = Cost::default();
+        let mut temps = temps;
+        for _ in 0..count {
+            let t = temps.read_temp_c().unwrap_or(f32::NAN);
+            if let Some(z) = trace.features(t) {
+                let (y, ticks) = timed(|| fixed.predict(black_box(&z)));
+                fcost.add(ticks);
+                trace.fold(y);
+            }
+        }
+        defmt::info!(
+            "fixed: digest={=u32} outputs={=u32} predict_total={=u64} calls={=u32} (SysTick ticks of FixedModel::predict)",
+            trace.digest(),
+            trace.count(),
+            fcost.total,
+            fcost.calls
+        );
+    }
 
     let s = ctl.summary();
     defmt::info!(
@@ -136,6 +307,18 @@ fn main() -> ! {
         cost.max,
         cost.total,
         cost.calls
+    );
+    defmt::info!(
+        "kernel: libm_total={=u64} fast_total={=u64} calls={=u32} fast_max_dev_dph={=f32} (SysTick ticks of predict_standardised_dph per exp choice)",
+        k_libm.total,
+        k_fast.total,
+        k_libm.calls,
+        fast_dev
+    );
+    defmt::info!(
+        "stack: high_water_bytes={=u32} (painted window {=usize} bytes)",
+        stack::high_water(&painted),
+        stack::WINDOW
     );
     if !written {
         defmt::error!("the host did not take every sample line");

@@ -37,7 +37,8 @@ pub struct ControlLoop<'m, T, R, const D: usize> {
 }
 
 impl<'m, T: TemperatureSensor, R: RateSensor, const D: usize> ControlLoop<'m, T, R, D> {
-    /// A loop over `table` with the given sensors and plausibility limits.
+    /// A loop over `table` with the given sensors and plausibility limits; the table's CRC-32
+    /// and content are checked here, once ([`Compensator::from_table`]).
     pub fn new<const N: usize>(
         table: &'m ModelTable<N, D>,
         limits: SensorLimits,
@@ -45,7 +46,7 @@ impl<'m, T: TemperatureSensor, R: RateSensor, const D: usize> ControlLoop<'m, T,
         rate: R,
     ) -> Self {
         ControlLoop {
-            compensator: Compensator::new(table.as_model(), limits),
+            compensator: Compensator::from_table(table, limits),
             temp,
             rate,
             index: 0,
@@ -56,6 +57,11 @@ impl<'m, T: TemperatureSensor, R: RateSensor, const D: usize> ControlLoop<'m, T,
     /// Whether the model table passed validation (if not, every sample is `TABLE_FAULT`).
     pub fn table_ok(&self) -> bool {
         self.compensator.table_ok()
+    }
+
+    /// Why the table was rejected, if it was.
+    pub fn table_error(&self) -> Option<compensator_core::TableError> {
+        self.compensator.table_error()
     }
 
     /// Counts so far.
@@ -127,7 +133,9 @@ mod tests {
             },
             support: [[-1.0, 0.0], [1.0, 0.0]],
             alpha_dph: [0.3, -0.2],
+            crc32: 0,
         }
+        .sealed()
     }
 
     struct Failing;

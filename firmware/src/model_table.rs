@@ -731,4 +731,5 @@ pub const MODEL: compensator_core::ModelTable<350, 2> = compensator_core::ModelT
         3.4120247,
         -0.5893359,
     ],
+    crc32: 0x733c0eda,
 };

@@ -66,6 +66,12 @@ impl<const D: usize> F32Model<D> {
             alpha_dph: &self.alpha_dph,
         }
     }
+
+    /// CRC-32 of the table's content, as the board computes it at boot
+    /// (`compensator_core::crc`); the exported table stores this value.
+    pub fn crc32(&self) -> u32 {
+        self.as_model().content_crc32()
+    }
 }
 
 /// Nearest f32, or an error when it is not finite.
@@ -182,12 +188,16 @@ fn list(v: &[f32]) -> String {
     format!("[{}]", items.join(", "))
 }
 
-fn variant(f: Feature) -> Result<&'static str, ExportError> {
-    match f {
-        Feature::TempC => Ok("TempC"),
-        Feature::TempRateCPerS => Ok("TempRateCPerS"),
-        other => Err(ExportError::Feature(other.name().to_string())),
-    }
+fn variant(f: Feature) -> Result<String, ExportError> {
+    Ok(match f {
+        Feature::TempC => "TempC".into(),
+        Feature::TempRateCPerS => "TempRateCPerS".into(),
+        Feature::TempLeadC { tau_s } => format!("TempLeadC {{ tau_s: {tau_s} }}"),
+        Feature::TempGradLagCPerS { tau_s } => format!("TempGradLagCPerS {{ tau_s: {tau_s} }}"),
+        Feature::TempPlayC { width_mc } => format!("TempPlayC {{ width_mc: {width_mc} }}"),
+        Feature::TimeOnS => "TimeOnS".into(),
+        other => return Err(ExportError::Feature(other.to_string())),
+    })
 }
 
 fn render<const D: usize>(m: &ModelFile, command: &str) -> Result<String, ExportError> {
@@ -231,6 +241,17 @@ fn render<const D: usize>(m: &ModelFile, command: &str) -> Result<String, Export
         m.training.samples, m.training.rms_dph, m.training.max_abs_dph
     );
     let _ = writeln!(o);
+    o.push_str(&table_item(&t)?);
+    Ok(o)
+}
+
+/// The `pub const MODEL` item of a converted table (doc line, attributes, all fields,
+/// including the CRC-32): the body of every exported table file, also used on its own for
+/// tables made in code (synthetic benchmark tables).
+pub fn table_item<const D: usize>(t: &F32Model<D>) -> Result<String, ExportError> {
+    let s = &t.spec;
+    let n = t.support.len();
+    let mut o = String::new();
     let _ = writeln!(o, "/// The model table; see the header for its provenance.");
     // Generated text is compared byte for byte with a fresh export; keep rustfmt off it.
     let _ = writeln!(o, "#[rustfmt::skip]");
@@ -274,6 +295,8 @@ fn render<const D: usize>(m: &ModelFile, command: &str) -> Result<String, Export
         let _ = writeln!(o, "        {},", f32_literal(*a));
     }
     let _ = writeln!(o, "    ],");
+    // Hex, so the staleness comparison of numbers treats it as exact text.
+    let _ = writeln!(o, "    crc32: {:#010x},", t.crc32());
     let _ = writeln!(o, "}};");
     Ok(o)
 }

@@ -7,6 +7,7 @@ pub mod baselines;
 pub mod cli;
 pub mod cycles;
 pub mod export;
+pub mod export_c;
 pub mod features;
 pub mod lssvm;
 pub mod metrics;

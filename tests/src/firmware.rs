@@ -234,9 +234,23 @@ pub struct QemuRun {
 
 /// Runs `elf` in QEMU, killing it after `timeout`.
 pub fn run_qemu(elf: &Path, timeout: Duration) -> Result<QemuRun, FirmwareError> {
+    run_qemu_on(elf, QEMU_ARGS[1], QEMU_ARGS[3], timeout)
+}
+
+/// Like [`run_qemu`] on another machine and CPU (e.g. `mps2-an385`, `cortex-m3`); the other
+/// arguments are those of [`QEMU_ARGS`].
+pub fn run_qemu_on(
+    elf: &Path,
+    machine: &str,
+    cpu: &str,
+    timeout: Duration,
+) -> Result<QemuRun, FirmwareError> {
+    let mut args = QEMU_ARGS;
+    args[1] = machine;
+    args[3] = cpu;
     let start = Instant::now();
     let mut child = Command::new(QEMU)
-        .args(QEMU_ARGS)
+        .args(args)
         .arg(elf)
         .stdin(Stdio::null())
         .stdout(Stdio::piped())

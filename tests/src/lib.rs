@@ -3,8 +3,22 @@
 //!
 //! * [`replay`]: the firmware's replay file format (writer and reader) and the QEMU scenario.
 //! * [`e2e`]: the README's main job (train, export, run the board image, compare).
+//! * [`budgets`]: board budgets (instructions, flash, RAM, stack) measured in QEMU.
 //! * [`firmware`]: build the board image for a replay file, run it in QEMU, decode its output.
 
+pub mod budgets;
 pub mod e2e;
 pub mod firmware;
 pub mod replay;
+
+/// The committed default board table (`firmware/src/model_table.rs`), compiled in here.
+pub fn default_model_table() -> &'static compensator_core::ModelTable<
+    { default_table::MODEL.support.len() },
+    { default_table::MODEL.spec.features.len() },
+> {
+    &default_table::MODEL
+}
+
+#[allow(dead_code, missing_docs)]
+#[path = "../../firmware/src/model_table.rs"]
+mod default_table;

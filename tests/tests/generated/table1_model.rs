@@ -53,4 +53,5 @@ pub const MODEL: compensator_core::ModelTable<11, 1> = compensator_core::ModelTa
         -3.4357903,
         0.7522669,
     ],
+    crc32: 0x6f7e2c96,
 };
