@@ -1,0 +1,143 @@
+//! Reduced LS-SVM models with at most a fixed number of support vectors, so that a model fits
+//! the board's table of fixed capacity: one entry point, [`train_reduced`], over the two
+//! methods of [`super::fixed_size`] and [`super::prune`].
+
+use super::fixed_size::{solve_fixed_size, FixedSizeOptions, Rows};
+use super::prune::prune;
+use super::{Lssvm, LssvmError, Scaling};
+
+/// Default support-vector budget: the board table's default capacity.
+pub const DEFAULT_BUDGET: usize = 64;
+
+/// How to reduce the model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Reduction {
+    /// Fixed-size LS-SVM: Rényi-entropy active set, Nyström map, primal solve. O(n·M) memory;
+    /// the method for large training sets.
+    FixedSize {
+        /// Swap attempts of the active-set search.
+        trials: usize,
+        /// Seed of the active-set search.
+        seed: u64,
+    },
+    /// Iterative pruning of the smallest |a| with an exact re-solve per round (n ≤
+    /// [`super::prune::MAX_PRUNE_SAMPLES`]).
+    Prune {
+        /// Fraction of the remaining points removed per round, (0, 1].
+        fraction: f64,
+    },
+}
+
+impl Reduction {
+    /// Fixed-size with the default search (20 000 swap attempts, seed 0).
+    pub const FIXED_SIZE: Reduction = Reduction::FixedSize {
+        trials: 20_000,
+        seed: 0,
+    };
+    /// Pruning 5 % of the remaining points per round.
+    pub const PRUNE: Reduction = Reduction::Prune { fraction: 0.05 };
+
+    /// Short name for tables and file names.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Reduction::FixedSize { .. } => "fixed-size",
+            Reduction::Prune { .. } => "prune",
+        }
+    }
+}
+
+/// Trains on raw inputs `x` (columns named by `features`) and targets `y_dph` (°/h) a model
+/// with at most `budget` support vectors. The standardisation is fitted on all of `x`, as
+/// [`Lssvm::train`] does, so a reduced model and the full one see the same inputs.
+pub fn train_reduced(
+    features: &[String],
+    x: &[Vec<f64>],
+    y_dph: &[f64],
+    sigma: f64,
+    c: f64,
+    budget: usize,
+    method: Reduction,
+) -> Result<Lssvm, LssvmError> {
+    if x.len() != y_dph.len() {
+        return Err(LssvmError::Length {
+            inputs: x.len(),
+            targets: y_dph.len(),
+        });
+    }
+    let scaling = Scaling::fit(features, x)?;
+    let z: Vec<Vec<f64>> = x.iter().map(|r| scaling.apply(r)).collect();
+    let (support, alpha_dph, bias_dph) = match method {
+        Reduction::FixedSize { trials, seed } => {
+            let rows = Rows::from_rows(&z);
+            drop(z);
+            let opts = FixedSizeOptions {
+                budget,
+                trials,
+                seed,
+            };
+            let s = solve_fixed_size(&rows, y_dph, sigma, c, &opts)?;
+            let support = s.active.iter().map(|&i| rows.row(i).to_vec()).collect();
+            (support, s.alpha, s.bias)
+        }
+        Reduction::Prune { fraction } => {
+            let p = prune(&z, y_dph, sigma, c, budget, fraction)?;
+            let support = p.kept.iter().map(|&i| z[i].clone()).collect();
+            (support, p.solution.alpha, p.solution.bias)
+        }
+    };
+    Ok(Lssvm {
+        features: features.to_vec(),
+        scaling,
+        support,
+        alpha_dph,
+        bias_dph,
+        sigma,
+        c,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn data(n: usize) -> (Vec<String>, Vec<Vec<f64>>, Vec<f64>) {
+        let x: Vec<Vec<f64>> = (0..n)
+            .map(|i| {
+                let t = i as f64;
+                vec![
+                    10.0 + 55.0 * (t * 0.618_033_988_7).fract(),
+                    0.02 * ((t * 0.414_213_562_4).fract() - 0.5),
+                ]
+            })
+            .collect();
+        let y = x.iter().map(|r| -7.1 - 2e-4 * r[0] + 2.0 * r[1]).collect();
+        (vec!["temp_c".into(), "temp_rate_c_per_s".into()], x, y)
+    }
+
+    /// Both methods respect the budget and, with a budget ≥ n, agree with the exact model on
+    /// raw inputs (fixed-size to the Nyström truncation, pruning exactly).
+    #[test]
+    fn both_methods_meet_the_budget_and_match_exact_when_unreduced() {
+        let (f, x, y) = data(120);
+        let exact = Lssvm::train(&f, &x, &y, 1.0, 100.0).unwrap();
+        for method in [Reduction::FIXED_SIZE, Reduction::PRUNE] {
+            let r = train_reduced(&f, &x, &y, 1.0, 100.0, 16, method).unwrap();
+            assert_eq!(r.support.len(), 16, "{}", method.name());
+            assert_eq!(r.scaling, exact.scaling);
+            let u = train_reduced(&f, &x, &y, 1.0, 100.0, 500, method).unwrap();
+            for row in &x {
+                let d = (u.predict(row) - exact.predict(row)).abs();
+                assert!(d < 1e-8, "{}: {d}", method.name());
+            }
+        }
+    }
+
+    #[test]
+    fn mismatched_lengths_are_an_error() {
+        let (f, x, y) = data(10);
+        assert!(matches!(
+            train_reduced(&f, &x, &y[..4], 1.0, 1.0, 4, Reduction::PRUNE),
+            Err(LssvmError::Length { .. })
+        ));
+    }
+}
