@@ -14,3 +14,4 @@ pub mod physics;
 pub mod pipeline;
 pub mod recording;
 pub mod simulate;
+pub mod sparse_eval;

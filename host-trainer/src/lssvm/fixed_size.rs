@@ -238,6 +238,23 @@ pub fn solve_fixed_size(
         });
     }
     let active = select_active_set(z, opts.budget, sigma, opts.trials, opts.seed);
+    solve_on_active(z, y, sigma, c, active)
+}
+
+/// The primal solve of the module doc on a given active set (distinct row indices of `z`):
+/// every row of `z` enters the fit, only the active rows become support vectors. Inputs are
+/// assumed validated (as [`solve_fixed_size`] does).
+pub fn solve_on_active(
+    z: &Rows,
+    y: &[f64],
+    sigma: f64,
+    c: f64,
+    active: Vec<usize>,
+) -> Result<FixedSizeSolution, LssvmError> {
+    let n = z.len();
+    if active.is_empty() || n != y.len() || active.iter().any(|&a| a >= n) {
+        return Err(LssvmError::Empty);
+    }
     let m = active.len();
     let inv = 1.0 / (2.0 * sigma * sigma);
     let kmm = Mat::<f64>::from_fn(m, m, |i, j| gauss(z.row(active[i]), z.row(active[j]), inv));
