@@ -3,10 +3,12 @@
 //!
 //! A library with a thin CLI (`rlg`) on top: everything the CLI does is callable from Rust.
 
+pub mod bench;
 pub mod cli;
 pub mod cycles;
 pub mod export;
 pub mod features;
+pub mod fleet;
 pub mod lssvm;
 pub mod metrics;
 pub mod model;

@@ -272,8 +272,10 @@ pub fn solve_on_active(
     let p = Mat::<f64>::from_fn(m, r, |i, k| evd.U()[(i, keep[k])] / lam[keep[k]].sqrt());
     let active_rows: Vec<&[f64]> = active.iter().map(|&a| z.row(a)).collect();
 
-    // Normal equations of [Φ 1], accumulated chunk by chunk (in parallel over chunks).
-    let (g, h) = (0..n.div_ceil(CHUNK_ROWS))
+    // Normal equations of [Φ 1], accumulated chunk by chunk (in parallel over chunks). The
+    // partial sums are collected in chunk order and added serially, so the result does not
+    // depend on how the work was split between threads.
+    let parts: Vec<(Mat<f64>, Mat<f64>)> = (0..n.div_ceil(CHUNK_ROWS))
         .into_par_iter()
         .map(|ch| {
             let lo = ch * CHUNK_ROWS;
@@ -288,11 +290,13 @@ pub fn solve_on_active(
             let h = aug.transpose() * &yc;
             (g, h)
         })
-        .reduce(
-            || (Mat::<f64>::zeros(r + 1, r + 1), Mat::<f64>::zeros(r + 1, 1)),
-            |(g1, h1), (g2, h2)| (g1 + g2, h1 + h2),
-        );
-    let mut g = g;
+        .collect();
+    let mut g = Mat::<f64>::zeros(r + 1, r + 1);
+    let mut h = Mat::<f64>::zeros(r + 1, 1);
+    for (gp, hp) in &parts {
+        g += gp;
+        h += hp;
+    }
     for k in 0..r {
         g[(k, k)] += 1.0 / c;
     }
