@@ -59,6 +59,8 @@ pub struct HeldOut {
     pub support_vectors: usize,
     /// Wall time of the training, s.
     pub train_s: f64,
+    /// Largest |a_i|, °/h: large coefficients that cancel cost f32 precision on the board.
+    pub max_abs_alpha_dph: f64,
     /// 100 s stability of the raw held-out output, °/h.
     pub raw_b100_dph: f64,
     /// 100 s stability after the board's f32 compensator, °/h.
@@ -151,6 +153,11 @@ pub fn held_out(run: &DynamicRun, recipe: &Recipe, sigma: f64, c: f64) -> anyhow
         train_samples: model.training.samples,
         support_vectors: model.lssvm.support.len(),
         train_s,
+        max_abs_alpha_dph: model
+            .lssvm
+            .alpha_dph
+            .iter()
+            .fold(0.0, |m, a| f64::max(m, a.abs())),
         raw_b100_dph: raw,
         board_b100_dph: board,
         f64_b100_dph: f64_b100,
@@ -189,17 +196,26 @@ pub fn standard_recipes(m: usize) -> Vec<Recipe> {
 /// first row's (the full model).
 pub fn table(rows: &[HeldOut]) -> String {
     let mut s = format!(
-        "{:<32} {:>7} {:>5} {:>8} {:>11} {:>11} {:>11} {:>8}\n",
-        "model", "train n", "SVs", "train s", "raw °/h", "board °/h", "f64 °/h", "vs full"
+        "{:<32} {:>7} {:>5} {:>8} {:>9} {:>11} {:>11} {:>11} {:>8}\n",
+        "model",
+        "train n",
+        "SVs",
+        "train s",
+        "max|a|",
+        "raw °/h",
+        "board °/h",
+        "f64 °/h",
+        "vs full"
     );
     let full = rows.first().map_or(f64::NAN, |r| r.board_b100_dph);
     for r in rows {
         s += &format!(
-            "{:<32} {:>7} {:>5} {:>8.3} {:>11.3e} {:>11.3e} {:>11.3e} {:>+7.1}%\n",
+            "{:<32} {:>7} {:>5} {:>8.3} {:>9.2e} {:>11.3e} {:>11.3e} {:>11.3e} {:>+7.1}%\n",
             r.label,
             r.train_samples,
             r.support_vectors,
             r.train_s,
+            r.max_abs_alpha_dph,
             r.raw_b100_dph,
             r.board_b100_dph,
             r.f64_b100_dph,
