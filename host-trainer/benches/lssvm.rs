@@ -11,7 +11,7 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
 use host_trainer::bench::{bench_data, campaign, train_scale};
 use host_trainer::lssvm::solve::solve_with_loo;
 use host_trainer::lssvm::{kernel_matrix, solve};
-use host_trainer::pipeline::{DYNAMIC_SEED, SIGMA, C};
+use host_trainer::pipeline::{C, DYNAMIC_SEED, SIGMA};
 
 fn exact(cr: &mut Criterion) {
     let mut g = cr.benchmark_group("exact");

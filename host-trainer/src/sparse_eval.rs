@@ -69,12 +69,18 @@ pub struct HeldOut {
     pub f64_b100_dph: f64,
 }
 
-/// Trains a model on the first cycle of `run` with `recipe`, σ and c.
+/// Trains a model on the first cycle of `run` with `recipe`, σ and c; `command` is recorded
+/// in the provenance (for the board's default table: `pipeline::DEFAULT_TABLE_COMMAND`).
+///
+/// The default table's reduced model is
+/// `train_first_cycle(&run, &Recipe { reduction: Some((Reduction::FIXED_SIZE, 64)), block:
+/// pipeline::TRAIN_BLOCK }, pipeline::SIGMA, pipeline::C, pipeline::DEFAULT_TABLE_COMMAND)`.
 pub fn train_first_cycle(
     run: &DynamicRun,
     recipe: &Recipe,
     sigma: f64,
     c: f64,
+    command: &str,
 ) -> anyhow::Result<ModelFile> {
     let sel = RecordingSelection {
         from_s: None,
@@ -102,7 +108,7 @@ pub fn train_first_cycle(
             pipeline::DYNAMIC_SEED
         ),
         pipeline::DYNAMIC_SCENARIO_TOML.as_bytes(),
-        &format!("sparse comparison: {}", recipe.label()),
+        command,
     );
     Ok(ModelFile::from_trained(
         model,
@@ -145,7 +151,13 @@ pub fn evaluate(run: &DynamicRun, model: &ModelFile) -> anyhow::Result<(f64, f64
 /// Trains with `recipe` on the first cycle and evaluates on the others.
 pub fn held_out(run: &DynamicRun, recipe: &Recipe, sigma: f64, c: f64) -> anyhow::Result<HeldOut> {
     let t0 = std::time::Instant::now();
-    let model = train_first_cycle(run, recipe, sigma, c)?;
+    let model = train_first_cycle(
+        run,
+        recipe,
+        sigma,
+        c,
+        &format!("rlg sparse-report ({})", recipe.label()),
+    )?;
     let train_s = t0.elapsed().as_secs_f64();
     let (raw, board, f64_b100) = evaluate(run, &model)?;
     Ok(HeldOut {
