@@ -131,6 +131,12 @@ pub struct SparseReportArgs {
     /// Support-vector budget of the reduced models.
     #[arg(long, default_value_t = DEFAULT_BUDGET)]
     pub budget: usize,
+    /// Gaussian kernel width σ, standardised units.
+    #[arg(long, default_value_t = pipeline::SIGMA)]
+    pub sigma: f64,
+    /// Regularisation c.
+    #[arg(long, default_value_t = pipeline::C)]
+    pub c: f64,
 }
 
 /// Runs `rlg sparse-report`: held-out 100 s stability of the full and reduced models on the
@@ -139,15 +145,15 @@ pub fn run_sparse(a: &SparseReportArgs) -> anyhow::Result<()> {
     let run = pipeline::dynamic_run()?;
     let rows = sparse_eval::standard_recipes(a.budget)
         .iter()
-        .map(|r| sparse_eval::held_out(&run, r, pipeline::SIGMA, pipeline::C))
+        .map(|r| sparse_eval::held_out(&run, r, a.sigma, a.c))
         .collect::<anyhow::Result<Vec<_>>>()?;
     println!(
         "trained on the first cycle (to {:.0} s), held out: cycles 2..{} ({:.0} s); σ = {}, c = {}",
         run.train_end_s(),
         run.cycles.len(),
         run.recording.time_s.last().copied().unwrap_or(0.0) - run.train_end_s(),
-        pipeline::SIGMA,
-        pipeline::C
+        a.sigma,
+        a.c
     );
     print!("{}", sparse_eval::table(&rows));
     println!("board: exported f32 table through compensator_core::Compensator; f64: the model file on the host features");
