@@ -4,11 +4,13 @@
 //! A library with a thin CLI (`rlg`) on top: everything the CLI does is callable from Rust.
 
 pub mod baselines;
+pub mod bench;
 pub mod cli;
 pub mod cycles;
 pub mod export;
 pub mod export_c;
 pub mod features;
+pub mod fleet;
 pub mod lssvm;
 pub mod metrics;
 pub mod model;
@@ -17,4 +19,5 @@ pub mod pipeline;
 pub mod plot;
 pub mod recording;
 pub mod simulate;
+pub mod sparse_eval;
 pub mod table1;

@@ -175,6 +175,29 @@ impl ModelFile {
         } else {
             None
         };
+        ModelFile::from_trained(model, x, y_dph, rate_tau_s, dt_s, loo_rms_dph, provenance)
+    }
+
+    /// Wraps an already trained regression (for example a reduced one, see
+    /// [`crate::lssvm::sparse`]) with range, reference and training errors on its training
+    /// set `x`, `y_dph` (raw features, °/h).
+    pub fn from_trained(
+        model: Lssvm,
+        x: &[Vec<f64>],
+        y_dph: &[f64],
+        rate_tau_s: f64,
+        dt_s: f64,
+        loo_rms_dph: Option<f64>,
+        provenance: Provenance,
+    ) -> Result<ModelFile, ModelError> {
+        let features = model.features.clone();
+        if x.is_empty() || x.len() != y_dph.len() {
+            return Err(ModelError::Invalid(format!(
+                "{} training rows but {} targets",
+                x.len(),
+                y_dph.len()
+            )));
+        }
         let resid: Vec<f64> = x
             .iter()
             .zip(y_dph)
@@ -193,7 +216,7 @@ impl ModelFile {
         let input_hi: Vec<f64> = (0..dim)
             .map(|d| x.iter().map(|r| r[d]).fold(f64::NEG_INFINITY, f64::max))
             .collect();
-        let reference_input = reference_input(features, &input_lo, &input_hi);
+        let reference_input = reference_input(&features, &input_lo, &input_hi);
         let reference_dph = model.predict(&reference_input);
         let m = ModelFile {
             format_version: FORMAT_VERSION,

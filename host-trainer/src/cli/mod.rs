@@ -1,7 +1,9 @@
 //! The `rlg` command line: argument parsing and printing on top of the library.
 
+pub mod bench;
 pub mod default_table;
 pub mod export;
+pub mod fleet;
 pub mod simulate;
 pub mod train;
 
@@ -27,6 +29,14 @@ pub enum Command {
     DefaultTable(default_table::DefaultTableArgs),
     /// Simulate a thermal-chamber experiment: writes the recording and `<stem>.truth.json`.
     Simulate(simulate::SimulateArgs),
+    /// Train every recording of a folder in parallel: one model and one table each.
+    TrainFleet(fleet::TrainFleetArgs),
+    /// Time training a reduced model from a simulated multi-day 1 Hz campaign; peak memory.
+    BenchScale(bench::BenchScaleArgs),
+    /// Time the exact LS-SVM path on data files shared with the Python reference.
+    BenchLssvm(bench::BenchLssvmArgs),
+    /// Held-out stability of reduced models vs the full one on the reference dynamic run.
+    SparseReport(bench::SparseReportArgs),
 }
 
 impl Cli {
@@ -37,6 +47,10 @@ impl Cli {
             Command::Export(a) => export::run(&a, command_line),
             Command::Simulate(a) => simulate::run(&a),
             Command::DefaultTable(a) => default_table::run(&a),
+            Command::TrainFleet(a) => fleet::run(&a, command_line),
+            Command::BenchScale(a) => bench::run_scale(&a),
+            Command::BenchLssvm(a) => bench::run_lssvm(&a),
+            Command::SparseReport(a) => bench::run_sparse(&a),
         }
     }
 }

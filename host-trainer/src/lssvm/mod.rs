@@ -7,8 +7,11 @@
 //! [`Lssvm`] ties them together: train on raw features, predict on raw features.
 
 pub mod dataset;
+pub mod fixed_size;
+pub mod prune;
 pub mod scaling;
 pub mod solve;
+pub mod sparse;
 
 use serde::{Deserialize, Serialize};
 
@@ -78,6 +81,14 @@ pub enum LssvmError {
     /// The solve produced NaN or infinity (an ill-conditioned system).
     #[error("the solution of Eq. (9) is not finite (ill-conditioned system)")]
     Singular,
+    /// Too many samples for a method that forms the n×n kernel matrix.
+    #[error("{samples} samples is more than the {max} an exact solve handles (an n×n matrix); use the fixed-size method")]
+    TooLarge {
+        /// Samples given.
+        samples: usize,
+        /// Largest accepted.
+        max: usize,
+    },
 }
 
 /// A trained LS-SVM: Eq. (10) on standardised inputs.

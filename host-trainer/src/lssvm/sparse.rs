@@ -1,0 +1,284 @@
+//! Reduced LS-SVM models with at most a fixed number of support vectors, so that a model fits
+//! the board's table of fixed capacity: one entry point, [`train_reduced`], over the two
+//! methods of [`super::fixed_size`] and [`super::prune`].
+
+use super::fixed_size::{solve_fixed_size, solve_on_active, FixedSizeOptions, Rows};
+use super::prune::prune;
+use super::{Lssvm, LssvmError, Scaling};
+
+/// Default support-vector budget: the board table's default capacity.
+pub const DEFAULT_BUDGET: usize = 64;
+
+/// How to reduce the model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Reduction {
+    /// Fixed-size LS-SVM: Rényi-entropy active set, Nyström map, primal solve. O(n·M) memory;
+    /// the method for large training sets.
+    FixedSize {
+        /// Swap attempts of the active-set search.
+        trials: usize,
+        /// Seed of the active-set search.
+        seed: u64,
+    },
+    /// Iterative pruning of the smallest |a| with an exact re-solve per round (n ≤
+    /// [`super::prune::MAX_PRUNE_SAMPLES`]).
+    Prune {
+        /// Fraction of the remaining points removed per round, (0, 1].
+        fraction: f64,
+        /// After pruning, refit the coefficients on ALL training points with the kept points
+        /// as the only support vectors (the primal solve of [`super::fixed_size`]), instead of
+        /// the exact solve on the kept points alone. Pruning keeps the points with the largest
+        /// |a| = c·|e|, the worst-fitted ones; fitted on those alone the model follows their
+        /// noise.
+        refit_all: bool,
+    },
+}
+
+impl Reduction {
+    /// Fixed-size with the default search (20 000 swap attempts, seed 0).
+    pub const FIXED_SIZE: Reduction = Reduction::FixedSize {
+        trials: 20_000,
+        seed: 0,
+    };
+    /// Pruning 5 % of the remaining points per round, coefficients from the last exact
+    /// solve on the kept points (the classical method).
+    pub const PRUNE: Reduction = Reduction::Prune {
+        fraction: 0.05,
+        refit_all: false,
+    };
+    /// Pruning as [`Reduction::PRUNE`], then the coefficients refitted on all points.
+    pub const PRUNE_REFIT: Reduction = Reduction::Prune {
+        fraction: 0.05,
+        refit_all: true,
+    };
+
+    /// Short name for tables and file names.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Reduction::FixedSize { .. } => "fixed-size",
+            Reduction::Prune {
+                refit_all: false, ..
+            } => "prune",
+            Reduction::Prune {
+                refit_all: true, ..
+            } => "prune+refit",
+        }
+    }
+}
+
+/// Trains on raw inputs `x` (columns named by `features`) and targets `y_dph` (°/h) a model
+/// with at most `budget` support vectors. The standardisation is fitted on all of `x`, as
+/// [`Lssvm::train`] does, so a reduced model and the full one see the same inputs.
+pub fn train_reduced(
+    features: &[String],
+    x: &[Vec<f64>],
+    y_dph: &[f64],
+    sigma: f64,
+    c: f64,
+    budget: usize,
+    method: Reduction,
+) -> Result<Lssvm, LssvmError> {
+    if x.len() != y_dph.len() {
+        return Err(LssvmError::Length {
+            inputs: x.len(),
+            targets: y_dph.len(),
+        });
+    }
+    let scaling = Scaling::fit(features, x)?;
+    let z: Vec<Vec<f64>> = x.iter().map(|r| scaling.apply(r)).collect();
+    let (support, alpha_dph, bias_dph) = match method {
+        Reduction::FixedSize { trials, seed } => {
+            let rows = Rows::from_rows(&z);
+            drop(z);
+            let opts = FixedSizeOptions {
+                budget,
+                trials,
+                seed,
+            };
+            let s = solve_fixed_size(&rows, y_dph, sigma, c, &opts)?;
+            let support = s.active.iter().map(|&i| rows.row(i).to_vec()).collect();
+            (support, s.alpha, s.bias)
+        }
+        Reduction::Prune {
+            fraction,
+            refit_all: false,
+        } => {
+            let p = prune(&z, y_dph, sigma, c, budget, fraction)?;
+            let support = p.kept.iter().map(|&i| z[i].clone()).collect();
+            (support, p.solution.alpha, p.solution.bias)
+        }
+        Reduction::Prune {
+            fraction,
+            refit_all: true,
+        } => {
+            let p = prune(&z, y_dph, sigma, c, budget, fraction)?;
+            let rows = Rows::from_rows(&z);
+            let s = solve_on_active(&rows, y_dph, sigma, c, p.kept)?;
+            let support = s.active.iter().map(|&i| z[i].clone()).collect();
+            (support, s.alpha, s.bias)
+        }
+    };
+    Ok(Lssvm {
+        features: features.to_vec(),
+        scaling,
+        support,
+        alpha_dph,
+        bias_dph,
+        sigma,
+        c,
+    })
+}
+
+/// One point of a hyper-parameter grid and its validation error.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GridPoint {
+    /// Kernel width σ, standardised units.
+    pub sigma: f64,
+    /// Regularisation c.
+    pub c: f64,
+    /// RMS error on the validation rows, °/h (NaN when training failed).
+    pub validation_rms_dph: f64,
+}
+
+/// Evaluates every (σ, c) of `sigmas` × `cs` in parallel (rayon, one task per point): a
+/// reduced model is trained on the training rows and scored on the validation rows, which are
+/// every `folds`-th contiguous block of `block` rows (blocks rather than single rows, because
+/// neighbouring 1 Hz samples share their noise and would flatter the score). Returns the grid
+/// in row-major order (σ outer); pick the smallest `validation_rms_dph`.
+#[allow(clippy::too_many_arguments)]
+pub fn grid_search(
+    features: &[String],
+    x: &[Vec<f64>],
+    y_dph: &[f64],
+    sigmas: &[f64],
+    cs: &[f64],
+    budget: usize,
+    method: Reduction,
+    block: usize,
+    folds: usize,
+) -> Result<Vec<GridPoint>, LssvmError> {
+    use rayon::prelude::*;
+    if x.len() != y_dph.len() {
+        return Err(LssvmError::Length {
+            inputs: x.len(),
+            targets: y_dph.len(),
+        });
+    }
+    let block = block.max(1);
+    let folds = folds.max(2);
+    let is_val = |i: usize| (i / block) % folds == folds - 1;
+    let (mut xt, mut yt, mut xv, mut yv) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    for (i, (r, v)) in x.iter().zip(y_dph).enumerate() {
+        if is_val(i) {
+            xv.push(r.clone());
+            yv.push(*v);
+        } else {
+            xt.push(r.clone());
+            yt.push(*v);
+        }
+    }
+    if xt.is_empty() || xv.is_empty() {
+        return Err(LssvmError::Empty);
+    }
+    let grid: Vec<(f64, f64)> = sigmas
+        .iter()
+        .flat_map(|&s| cs.iter().map(move |&c| (s, c)))
+        .collect();
+    Ok(grid
+        .par_iter()
+        .map(|&(sigma, c)| {
+            let rms =
+                train_reduced(features, &xt, &yt, sigma, c, budget, method).map_or(f64::NAN, |m| {
+                    let ss: f64 = xv
+                        .iter()
+                        .zip(&yv)
+                        .map(|(r, v)| (m.predict(r) - v).powi(2))
+                        .sum();
+                    (ss / xv.len() as f64).sqrt()
+                });
+            GridPoint {
+                sigma,
+                c,
+                validation_rms_dph: rms,
+            }
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn data(n: usize) -> (Vec<String>, Vec<Vec<f64>>, Vec<f64>) {
+        let x: Vec<Vec<f64>> = (0..n)
+            .map(|i| {
+                let t = i as f64;
+                vec![
+                    10.0 + 55.0 * (t * 0.618_033_988_7).fract(),
+                    0.02 * ((t * 0.414_213_562_4).fract() - 0.5),
+                ]
+            })
+            .collect();
+        let y = x.iter().map(|r| -7.1 - 2e-4 * r[0] + 2.0 * r[1]).collect();
+        (vec!["temp_c".into(), "temp_rate_c_per_s".into()], x, y)
+    }
+
+    /// Both methods respect the budget and, with a budget ≥ n, agree with the exact model on
+    /// raw inputs (fixed-size to the Nyström truncation, pruning exactly).
+    #[test]
+    fn both_methods_meet_the_budget_and_match_exact_when_unreduced() {
+        let (f, x, y) = data(120);
+        let exact = Lssvm::train(&f, &x, &y, 1.0, 100.0).unwrap();
+        for method in [
+            Reduction::FIXED_SIZE,
+            Reduction::PRUNE,
+            Reduction::PRUNE_REFIT,
+        ] {
+            let r = train_reduced(&f, &x, &y, 1.0, 100.0, 16, method).unwrap();
+            assert_eq!(r.support.len(), 16, "{}", method.name());
+            assert_eq!(r.scaling, exact.scaling);
+            let u = train_reduced(&f, &x, &y, 1.0, 100.0, 500, method).unwrap();
+            for row in &x {
+                let d = (u.predict(row) - exact.predict(row)).abs();
+                assert!(d < 1e-8, "{}: {d}", method.name());
+            }
+        }
+    }
+
+    /// The parallel grid equals point-by-point serial evaluation, and on a smooth target
+    /// with a known width the best σ is not at the grid's extremes of badly over- or
+    /// under-smoothing.
+    #[test]
+    fn grid_search_matches_serial_and_prefers_a_sensible_width() {
+        let (f, x, _) = data(3000);
+        let y: Vec<f64> = x.iter().map(|r| (r[0] / 8.0).sin() + 30.0 * r[1]).collect();
+        let sigmas = [0.02, 0.5, 50.0];
+        let cs = [100.0];
+        let g = grid_search(&f, &x, &y, &sigmas, &cs, 32, Reduction::FIXED_SIZE, 50, 5).unwrap();
+        assert_eq!(g.len(), 3);
+        let train: Vec<usize> = (0..3000).filter(|i| (i / 50) % 5 != 4).collect();
+        let val: Vec<usize> = (0..3000).filter(|i| (i / 50) % 5 == 4).collect();
+        let xt: Vec<Vec<f64>> = train.iter().map(|&i| x[i].clone()).collect();
+        let yt: Vec<f64> = train.iter().map(|&i| y[i]).collect();
+        for p in &g {
+            let m = train_reduced(&f, &xt, &yt, p.sigma, p.c, 32, Reduction::FIXED_SIZE).unwrap();
+            let ss: f64 = val.iter().map(|&i| (m.predict(&x[i]) - y[i]).powi(2)).sum();
+            let rms = (ss / val.len() as f64).sqrt();
+            assert!(
+                (rms - p.validation_rms_dph).abs() <= 1e-12 * rms.max(1e-300),
+                "{p:?}"
+            );
+        }
+        assert!(g[1].validation_rms_dph < g[0].validation_rms_dph, "{g:?}");
+        assert!(g[1].validation_rms_dph < g[2].validation_rms_dph, "{g:?}");
+    }
+
+    #[test]
+    fn mismatched_lengths_are_an_error() {
+        let (f, x, y) = data(10);
+        assert!(matches!(
+            train_reduced(&f, &x, &y[..4], 1.0, 1.0, 4, Reduction::PRUNE),
+            Err(LssvmError::Length { .. })
+        ));
+    }
+}
