@@ -4,6 +4,7 @@
 //! A library with a thin CLI (`rlg`) on top: everything the CLI does is callable from Rust.
 
 pub mod cli;
+pub mod diagnose;
 pub mod export;
 pub mod features;
 pub mod lssvm;

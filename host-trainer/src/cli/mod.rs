@@ -1,5 +1,7 @@
 //! The `rlg` command line: argument parsing and printing on top of the library.
 
+pub mod benchmark_diagnose;
+pub mod diagnose;
 pub mod export;
 pub mod simulate;
 pub mod train;
@@ -24,6 +26,10 @@ pub enum Command {
     Export(export::ExportArgs),
     /// Simulate a thermal-chamber experiment: writes the recording and `<stem>.truth.json`.
     Simulate(simulate::SimulateArgs),
+    /// Diagnose where a recording departs from a physics model and which term is missing.
+    Diagnose(diagnose::DiagnoseArgs),
+    /// Run the concealed-effect benchmark of the diagnosis and print its table.
+    BenchmarkDiagnose(benchmark_diagnose::BenchmarkDiagnoseArgs),
 }
 
 impl Cli {
@@ -33,6 +39,8 @@ impl Cli {
             Command::Train(a) => train::run(&a, command_line),
             Command::Export(a) => export::run(&a, command_line),
             Command::Simulate(a) => simulate::run(&a),
+            Command::Diagnose(a) => diagnose::run(&a),
+            Command::BenchmarkDiagnose(a) => benchmark_diagnose::run(&a),
         }
     }
 }
