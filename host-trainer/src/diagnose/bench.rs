@@ -466,12 +466,52 @@ fn hidden_from_truth(truth: &Truth) -> Option<Term> {
 
 fn term_from_finding(d: &Diagnosis) -> Option<Term> {
     let f = d.findings.first()?;
-    let mut m = serde_json::Map::new();
+    let mut m = toml::Table::new();
     m.insert("kind".into(), f.mechanism.clone().into());
     for (k, v) in &f.parameters {
-        m.insert(k.clone(), serde_json::Value::from(*v));
+        m.insert(k.clone(), toml::Value::Float(*v));
     }
-    serde_json::from_value(serde_json::Value::Object(m)).ok()
+    toml::Value::Table(m).try_into().ok()
+}
+
+/// JSON value → TOML value, numbers as f64 (integers kept when they are integers).
+///
+/// The workspace builds serde_json with `arbitrary_precision`, under which serde_json cannot
+/// deserialize internally tagged enums such as [`Term`] (numbers reach the tag buffer as
+/// maps: "invalid type: map, expected f64"). The truth sidecar is therefore parsed into a
+/// `serde_json::Value` and deserialized through `toml::Value`, which has no such limitation.
+fn json_to_toml(v: &serde_json::Value) -> Option<toml::Value> {
+    Some(match v {
+        serde_json::Value::Null => return None,
+        serde_json::Value::Bool(b) => toml::Value::Boolean(*b),
+        serde_json::Value::Number(n) => match n.as_i64() {
+            Some(i) => toml::Value::Integer(i),
+            None => toml::Value::Float(n.as_f64()?),
+        },
+        serde_json::Value::String(s) => toml::Value::String(s.clone()),
+        serde_json::Value::Array(a) => {
+            toml::Value::Array(a.iter().filter_map(json_to_toml).collect())
+        }
+        serde_json::Value::Object(o) => toml::Value::Table(
+            o.iter()
+                .filter_map(|(k, v)| json_to_toml(v).map(|t| (k.clone(), t)))
+                .collect(),
+        ),
+    })
+}
+
+/// Reads a truth sidecar.
+pub fn read_truth(path: &Path) -> Result<Truth, BenchError> {
+    let bad = |message: String| BenchError::Truth {
+        path: path.display().to_string(),
+        message,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| bad(e.to_string()))?;
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| bad(e.to_string()))?;
+    json_to_toml(&v)
+        .ok_or_else(|| bad("empty truth".into()))?
+        .try_into()
+        .map_err(|e: toml::de::Error| bad(e.to_string()))
 }
 
 /// Scores one diagnosis from the truth sidecar (and the recording, for the block grid).
@@ -484,14 +524,7 @@ fn score(
     model: &PhysicsModel,
     seconds: f64,
 ) -> Result<CaseResult, BenchError> {
-    let text = std::fs::read_to_string(truth_file).map_err(|e| BenchError::Truth {
-        path: truth_file.display().to_string(),
-        message: e.to_string(),
-    })?;
-    let truth: Truth = serde_json::from_str(&text).map_err(|e| BenchError::Truth {
-        path: truth_file.display().to_string(),
-        message: e.to_string(),
-    })?;
+    let truth = read_truth(truth_file)?;
     let prep = prepare(rec)?;
     let hidden = hidden_from_truth(&truth);
     let predicted = match d.verdict {
