@@ -392,7 +392,7 @@ fn build_case(
         let (d_unit, _, _) = orthogonal_part(&prep, model, &e);
         let peak_unit = e.iter().fold(0.0f64, |a, v| a.max(v.abs()));
         let (s1, s100) = noise_sigmas(&sc.noise);
-        if !(d_unit > 0.0) {
+        if d_unit.is_nan() || d_unit <= 0.0 {
             continue;
         }
         let hidden = match unit {

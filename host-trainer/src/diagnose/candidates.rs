@@ -187,8 +187,8 @@ impl Family {
                 let n = prep.rate_dph.len();
                 let mut out = vec![0.0; n];
                 for ((ca, cb), w) in a.iter().zip(&b).zip(beta) {
-                    for i in 0..n {
-                        out[i] += w * (ca.values[i] - cb.values[i]);
+                    for (o, (x, y)) in out.iter_mut().zip(ca.values.iter().zip(&cb.values)) {
+                        *o += w * (x - y);
                     }
                 }
                 vec![out]

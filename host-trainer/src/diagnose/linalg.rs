@@ -124,7 +124,7 @@ pub(crate) fn added_fit(c_perp: &[Vec<f64>], y_perp: &[f64]) -> (f64, Vec<f64>) 
             );
             let (b1, b2) = (dot(&c_perp[0], y_perp), dot(&c_perp[1], y_perp));
             let det = g11 * g22 - g12 * g12;
-            if !(det > 1e-12 * g11 * g22) {
+            if det.is_nan() || det <= 1e-12 * g11 * g22 {
                 let (d, a) = added_fit(&c_perp[..1], y_perp);
                 return (d, vec![a[0], 0.0]);
             }
