@@ -154,6 +154,9 @@ pub struct Evidence {
     pub noise_ar: Vec<f64>,
     /// Innovation σ of the noise model, °/h.
     pub noise_sigma_dph: f64,
+    /// Gyro noise fitted to the 1 Hz residual for the bootstrap: angle random walk °/√h,
+    /// bias instability °/h, rate random walk °/h/√h.
+    pub noise_fit: [f64; 3],
     /// Bootstrap threshold on the best candidate's ΔBIC.
     pub delta_bic_threshold: f64,
     /// Bootstrap threshold on the generic-structure ΔBIC.

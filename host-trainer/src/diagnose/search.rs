@@ -7,13 +7,14 @@ use rayon::prelude::*;
 use super::candidates::Family;
 use super::linalg::{added_fit, combine, dot, Basis};
 use super::locate::{moving_average, peak_mask, phases, spans};
-use super::noise::{replicate_rng, ArModel};
+use super::noise::{fit_gyro_noise, replicate_rng, simulate_block_means, ArModel};
 use super::prepare::{baseline_columns, model_drive, DriveSeries, PhysicsModel, Prepared};
 use super::{
     CandidateScore, DiagnoseError, Diagnosis, Evidence, Figures, Finding, Options, Verdict,
 };
 use crate::metrics::{bias_stability_dph, rms};
 use crate::physics::Term;
+use crate::simulate::NoiseParams;
 
 /// Held-out folds: 1 h chunks of 100 s means, interleaved over this many folds, so every
 /// fold samples every part of the run (warm-up, ramps, holds) and none is extrapolated.
@@ -214,14 +215,28 @@ fn scan(
     }
 }
 
-/// Null distribution (bootstrap of the AR noise model) of the best candidate ΔBIC and of the
+/// Null distribution (bootstrap of the fitted gyro noise model, whitened by the data's AR
+/// filter exactly as the data are) of the best candidate ΔBIC and of the
 /// generic-structure ΔBIC; returns their `alpha` quantiles.
-fn bootstrap(ar: &ArModel, s: &Scan, points: &[Point], nb: usize, opts: &Options) -> (f64, f64) {
+fn bootstrap(
+    ar: &ArModel,
+    gyro: &NoiseParams,
+    s: &Scan,
+    points: &[Point],
+    prep: &Prepared,
+    opts: &Options,
+) -> (f64, f64) {
     let reps: Vec<(f64, f64)> = (0..opts.bootstrap.max(1))
         .into_par_iter()
         .map(|k| {
             let mut rng = replicate_rng(opts.seed, k as u64);
-            let x = ar.simulate(nb, &mut rng);
+            let x = simulate_block_means(
+                gyro,
+                prep.nb(),
+                prep.block as f64 * prep.dt_s,
+                &mut rng,
+                opts.seed.wrapping_add(k as u64 + 1),
+            );
             let e = s.basis.residual(&ar.whiten(&x));
             let rss0 = dot(&e, &e);
             let best = s
@@ -363,7 +378,16 @@ pub(crate) fn run(
         _ => ar1,
     };
     let s = scan(&ar, &base_b, &prep.y_b, &points, &generic);
-    let (thr, thr_gen) = bootstrap(&ar, &s, &points, nb, opts);
+    // The gyro noise for the bootstrap, from the 1 Hz residual of the baseline.
+    let fit1 = combine(&base1, &beta_b, prep.rate_dph.len());
+    let resid1: Vec<f64> = prep
+        .rate_dph
+        .iter()
+        .zip(&fit1)
+        .map(|(a, b)| a - b)
+        .collect();
+    let gyro = fit_gyro_noise(&resid1, prep.dt_s);
+    let (thr, thr_gen) = bootstrap(&ar, &gyro, &s, &points, prep, opts);
 
     // Best point of each family, most significant first.
     let mut best: Vec<(Family, usize)> = families
@@ -399,7 +423,13 @@ pub(crate) fn run(
 
     // Located spans of the baseline residual.
     let sigma_ma = {
-        let sim = ar.simulate(20_000, &mut replicate_rng(opts.seed ^ 0xa11ce, 0));
+        let sim = simulate_block_means(
+            &gyro,
+            20_000,
+            prep.block as f64 * prep.dt_s,
+            &mut replicate_rng(opts.seed ^ 0xa11ce, 0),
+            opts.seed ^ 0xa11ce,
+        );
         let ma = moving_average(&sim, LOCATE_WINDOW);
         (ma.iter().map(|v| v * v).sum::<f64>() / ma.len() as f64).sqrt()
     };
@@ -463,6 +493,11 @@ pub(crate) fn run(
         evidence: Evidence {
             noise_ar: ar.phi.clone(),
             noise_sigma_dph: ar.sigma,
+            noise_fit: [
+                gyro.arw_dph_rt_h,
+                gyro.bias_instability_dph,
+                gyro.rrw_dph_per_rt_h,
+            ],
             delta_bic_threshold: thr,
             structure_threshold: thr_gen,
             structure_delta_bic: s.gen_dbic,
