@@ -7,7 +7,9 @@ use rayon::prelude::*;
 use super::candidates::Family;
 use super::linalg::{added_fit, combine, dot, Basis};
 use super::locate::{moving_average, peak_mask, phases, spans};
-use super::noise::{fit_gyro_noise, replicate_rng, simulate_block_means, ArModel};
+use super::noise::{
+    calibrate_bias_instability, fit_gyro_noise, replicate_rng, simulate_block_means, ArModel,
+};
 use super::prepare::{baseline_columns, model_drive, DriveSeries, PhysicsModel, Prepared};
 use super::{
     CandidateScore, DiagnoseError, Diagnosis, Evidence, Figures, Finding, Options, Verdict,
@@ -386,7 +388,13 @@ pub(crate) fn run(
         .zip(&fit1)
         .map(|(a, b)| a - b)
         .collect();
-    let gyro = fit_gyro_noise(&resid1, prep.dt_s);
+    let gyro = calibrate_bias_instability(
+        &fit_gyro_noise(&resid1, prep.dt_s),
+        &resid_b,
+        prep.block as f64 * prep.dt_s,
+        |x| ols.residual(x),
+        opts.seed,
+    );
     let (thr, thr_gen) = bootstrap(&ar, &gyro, &s, &points, prep, opts);
 
     // Best point of each family, most significant first.
