@@ -371,26 +371,42 @@ pub(crate) fn run(
     // the best candidate removed, so a strong effect does not masquerade as noise colour.
     let ar1 = ArModel::fit(&resid_b);
     let s1 = scan(&ar1, &base_b, &prep.y_b, &points, &generic);
-    let ar = match argmin(&s1.dbic) {
-        Some(i) if s1.dbic[i] < 0.0 => {
-            let mut cols = base_b.clone();
-            cols.extend(points[i].cols_b.iter().cloned());
-            ArModel::fit(&Basis::new(&cols).residual(&prep.y_b))
+    // The best pass-1 candidate (when it lowers the BIC at all) is removed from the residual
+    // before the noise is modelled, so a real effect is not mistaken for noise: fitted into
+    // the noise model, it raised the thresholds until only 23 % of D ≥ 6 effects were found.
+    let best1 = argmin(&s1.dbic).filter(|&i| s1.dbic[i] < 0.0);
+    let (resid_nb, resid1) = {
+        let mut cols_b = base_b.clone();
+        let mut cols1 = base1.clone();
+        if let Some(i) = best1 {
+            cols_b.extend(points[i].cols_b.iter().cloned());
+            cols1.extend(
+                points[i]
+                    .family
+                    .columns(&points[i].nl, prep, model, &mdrive, &beta_b)?,
+            );
         }
-        _ => ar1,
+        let b = Basis::new(&cols_b);
+        let coef = b.coefficients(&prep.y_b);
+        let fit1 = combine(&cols1, &coef, prep.rate_dph.len());
+        (
+            b.residual(&prep.y_b),
+            prep.rate_dph
+                .iter()
+                .zip(&fit1)
+                .map(|(a, f)| a - f)
+                .collect::<Vec<f64>>(),
+        )
+    };
+    let ar = if best1.is_some() {
+        ArModel::fit(&resid_nb)
+    } else {
+        ar1
     };
     let s = scan(&ar, &base_b, &prep.y_b, &points, &generic);
-    // The gyro noise for the bootstrap, from the 1 Hz residual of the baseline.
-    let fit1 = combine(&base1, &beta_b, prep.rate_dph.len());
-    let resid1: Vec<f64> = prep
-        .rate_dph
-        .iter()
-        .zip(&fit1)
-        .map(|(a, b)| a - b)
-        .collect();
     let gyro = calibrate_bias_instability(
         &fit_gyro_noise(&resid1, prep.dt_s),
-        &resid_b,
+        &resid_nb,
         prep.block as f64 * prep.dt_s,
         |x| ols.residual(x),
         opts.seed,
