@@ -20,7 +20,7 @@ pub struct DiagnoseArgs {
     #[arg(long)]
     pub json: Option<PathBuf>,
     /// Bootstrap replicates of the noise model.
-    #[arg(long, default_value_t = 200)]
+    #[arg(long, default_value_t = 400)]
     pub bootstrap: usize,
 }
 

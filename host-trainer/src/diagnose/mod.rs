@@ -80,7 +80,7 @@ pub struct Options {
 impl Default for Options {
     fn default() -> Self {
         Self {
-            bootstrap: 200,
+            bootstrap: 400,
             alpha: 0.01,
             seed: 0x5eed,
         }
