@@ -7,6 +7,7 @@ pub mod baselines;
 pub mod bench;
 pub mod cli;
 pub mod cycles;
+pub mod diagnose;
 pub mod export;
 pub mod export_c;
 pub mod features;

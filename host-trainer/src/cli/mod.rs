@@ -2,6 +2,8 @@
 
 pub mod bench;
 pub mod default_table;
+pub mod benchmark_diagnose;
+pub mod diagnose;
 pub mod export;
 pub mod fleet;
 pub mod simulate;
@@ -37,6 +39,10 @@ pub enum Command {
     BenchLssvm(bench::BenchLssvmArgs),
     /// Held-out stability of reduced models vs the full one on the reference dynamic run.
     SparseReport(bench::SparseReportArgs),
+    /// Diagnose where a recording departs from a physics model and which term is missing.
+    Diagnose(diagnose::DiagnoseArgs),
+    /// Run the concealed-effect benchmark of the diagnosis and print its table.
+    BenchmarkDiagnose(benchmark_diagnose::BenchmarkDiagnoseArgs),
 }
 
 impl Cli {
@@ -51,6 +57,8 @@ impl Cli {
             Command::BenchScale(a) => bench::run_scale(&a),
             Command::BenchLssvm(a) => bench::run_lssvm(&a),
             Command::SparseReport(a) => bench::run_sparse(&a),
+            Command::Diagnose(a) => diagnose::run(&a),
+            Command::BenchmarkDiagnose(a) => benchmark_diagnose::run(&a),
         }
     }
 }

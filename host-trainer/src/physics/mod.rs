@@ -194,6 +194,85 @@ impl Term {
         }
     }
 
+    /// The term's numeric parameters as (name, value), names exactly as in TOML/JSON (the
+    /// serde field names), in declaration order; `windows_s` and `axis` are not scalars and
+    /// are left out, `coeffs_dph` is listed as `coeffs_dph[k]`.
+    pub fn parameters(&self) -> Vec<(String, f64)> {
+        let p = |n: &str, v: f64| (n.to_string(), v);
+        match self {
+            Term::EarthRate { latitude_deg, .. } => vec![p("latitude_deg", *latitude_deg)],
+            Term::StaticPoly {
+                center_c,
+                scale_c,
+                coeffs_dph,
+            } => {
+                let mut v = vec![p("center_c", *center_c), p("scale_c", *scale_c)];
+                v.extend(
+                    coeffs_dph
+                        .iter()
+                        .enumerate()
+                        .map(|(k, c)| (format!("coeffs_dph[{k}]"), *c)),
+                );
+                v
+            }
+            Term::RateTerms {
+                linear,
+                cubic,
+                temp_linear,
+            } => vec![
+                p("linear", *linear),
+                p("cubic", *cubic),
+                p("temp_linear", *temp_linear),
+            ],
+            Term::SensorLag { tau_s } => vec![p("tau_s", *tau_s)],
+            Term::GradientLag { tau_s, gain } => vec![p("tau_s", *tau_s), p("gain", *gain)],
+            Term::Hysteresis {
+                width_c,
+                height_dph,
+            } => vec![p("width_c", *width_c), p("height_dph", *height_dph)],
+            Term::Warmup {
+                amplitude_dph,
+                tau_s,
+                t_on_s,
+            } => vec![
+                p("amplitude_dph", *amplitude_dph),
+                p("tau_s", *tau_s),
+                p("t_on_s", *t_on_s),
+            ],
+            Term::ModeHop {
+                temp_c,
+                step_dph,
+                hysteresis_c,
+            } => vec![
+                p("temp_c", *temp_c),
+                p("step_dph", *step_dph),
+                p("hysteresis_c", *hysteresis_c),
+            ],
+            Term::Backscatter {
+                period_c,
+                amplitude_dph,
+                phase_rad,
+            } => vec![
+                p("period_c", *period_c),
+                p("amplitude_dph", *amplitude_dph),
+                p("phase_rad", *phase_rad),
+            ],
+            Term::Periodic {
+                period_s,
+                amplitude_dph,
+                phase_rad,
+                ..
+            } => vec![
+                p("period_s", *period_s),
+                p("amplitude_dph", *amplitude_dph),
+                p("phase_rad", *phase_rad),
+            ],
+            Term::Aging { rate_dph_per_day } => vec![p("rate_dph_per_day", *rate_dph_per_day)],
+            Term::Heteroscedastic { k, ref_c } => vec![p("k", *k), p("ref_c", *ref_c)],
+            Term::TempQuantization { step_c } => vec![p("step_c", *step_c)],
+        }
+    }
+
     /// What the term acts on.
     pub fn role(&self) -> Role {
         match self {

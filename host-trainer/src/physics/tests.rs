@@ -213,3 +213,81 @@ fn names_round_trip_through_toml() {
     .validate()
     .is_err());
 }
+
+/// `Term::parameters` names are exactly the serde field names (the names in TOML/JSON), for
+/// every term: the serialised object's scalar keys and the listed names coincide.
+#[test]
+fn parameter_names_are_the_serde_names() {
+    let terms = [
+        Term::EarthRate {
+            latitude_deg: 28.2,
+            axis: Axis::Down,
+        },
+        Term::StaticPoly {
+            center_c: 1.0,
+            scale_c: 2.0,
+            coeffs_dph: vec![1.0, 2.0],
+        },
+        Term::RateTerms {
+            linear: 1.0,
+            cubic: 2.0,
+            temp_linear: 3.0,
+        },
+        Term::SensorLag { tau_s: 5.0 },
+        Term::GradientLag {
+            tau_s: 5.0,
+            gain: 1.0,
+        },
+        Term::Hysteresis {
+            width_c: 1.0,
+            height_dph: 2.0,
+        },
+        Term::Warmup {
+            amplitude_dph: 1.0,
+            tau_s: 2.0,
+            t_on_s: 3.0,
+        },
+        Term::ModeHop {
+            temp_c: 1.0,
+            step_dph: 2.0,
+            hysteresis_c: 3.0,
+        },
+        Term::Backscatter {
+            period_c: 1.0,
+            amplitude_dph: 2.0,
+            phase_rad: 3.0,
+        },
+        Term::Periodic {
+            period_s: 1.0,
+            amplitude_dph: 2.0,
+            phase_rad: 3.0,
+            windows_s: vec![],
+        },
+        Term::Aging {
+            rate_dph_per_day: 1.0,
+        },
+        Term::Heteroscedastic { k: 1.0, ref_c: 2.0 },
+        Term::TempQuantization { step_c: 0.01 },
+    ];
+    for t in &terms {
+        let v = serde_json::to_value(t).unwrap();
+        let mut keys: Vec<String> = v
+            .as_object()
+            .unwrap()
+            .iter()
+            .filter(|(_, x)| x.is_number())
+            .map(|(k, _)| k.clone())
+            .collect();
+        if let Some(c) = v.get("coeffs_dph").and_then(|c| c.as_array()) {
+            keys.extend((0..c.len()).map(|k| format!("coeffs_dph[{k}]")));
+        }
+        let mut names: Vec<String> = t.parameters().into_iter().map(|p| p.0).collect();
+        keys.sort();
+        names.sort();
+        assert_eq!(keys, names, "{}", t.name());
+        for (k, val) in t.parameters() {
+            let direct = v.get(&k).and_then(|x| x.as_f64());
+            assert!(direct.is_none_or(|d| d == val), "{k}");
+        }
+    }
+}

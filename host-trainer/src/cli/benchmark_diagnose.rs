@@ -1,0 +1,47 @@
+//! `rlg benchmark-diagnose`: the concealed-effect benchmark of the diagnosis.
+
+use std::path::PathBuf;
+
+use crate::diagnose::bench::{report_markdown, run_benchmark, BenchOptions};
+
+/// Arguments of `rlg benchmark-diagnose`.
+#[derive(Debug, clap::Args)]
+pub struct BenchmarkDiagnoseArgs {
+    /// Master seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Working directory for the recordings; `results.json` and `report.md` are written here.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// A few recordings per term instead of 20 (and 8 instead of 100 without a hidden term).
+    #[arg(long)]
+    pub quick: bool,
+    /// Keep the recordings and truth sidecars.
+    #[arg(long)]
+    pub keep: bool,
+}
+
+/// Runs the subcommand.
+pub fn run(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
+    let mut opts = if args.quick {
+        BenchOptions::quick(args.seed)
+    } else {
+        BenchOptions::full(args.seed)
+    };
+    opts.keep = args.keep;
+    let t0 = std::time::Instant::now();
+    let results = run_benchmark(&opts, &args.out)?;
+    let md = report_markdown(&results);
+    crate::recording::write_atomic(
+        &args.out.join("results.json"),
+        serde_json::to_string_pretty(&results)?.as_bytes(),
+    )?;
+    crate::recording::write_atomic(&args.out.join("report.md"), md.as_bytes())?;
+    println!("{md}");
+    eprintln!(
+        "{} recordings in {:.1} s",
+        results.len(),
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(())
+}

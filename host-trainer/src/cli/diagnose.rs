@@ -1,0 +1,65 @@
+//! `rlg diagnose`: where a recording departs from a physics model and which term is missing.
+
+use std::path::PathBuf;
+
+use anyhow::Context as _;
+
+use crate::diagnose::{diagnose, Options, PhysicsModel};
+use crate::recording::Recording;
+
+/// Arguments of `rlg diagnose`.
+#[derive(Debug, clap::Args)]
+pub struct DiagnoseArgs {
+    /// Recording (CSV).
+    #[arg(long)]
+    pub recording: PathBuf,
+    /// Physics model (TOML `[[terms]]`); default: the paper's model (models/paper.toml).
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+    /// Write the machine-readable result here (JSON).
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+    /// Bootstrap replicates of the noise model.
+    #[arg(long, default_value_t = 400)]
+    pub bootstrap: usize,
+}
+
+/// Runs the subcommand.
+pub fn run(args: &DiagnoseArgs) -> anyhow::Result<()> {
+    let rec = Recording::read_csv(&args.recording)?;
+    let model = match &args.model {
+        Some(p) => {
+            let text =
+                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+            PhysicsModel::from_toml(&text, &p.display().to_string())?
+        }
+        None => PhysicsModel::paper(),
+    };
+    let opts = Options {
+        bootstrap: args.bootstrap,
+        ..Options::default()
+    };
+    let d = diagnose(&rec, &model, &opts)?;
+    println!(
+        "verdict: {}",
+        serde_json::to_value(d.verdict)?.as_str().unwrap_or("?")
+    );
+    println!(
+        "baseline (held-out): rms {:.3e} °/h, 100 s stability {:.3e} °/h, BIC {:.1}",
+        d.baseline.rms_dph, d.baseline.b100_dph, d.baseline.bic
+    );
+    for s in &d.located {
+        println!(
+            "significant residual: {:.0}–{:.0} s, {:.1}–{:.1} °C, {}, mean {:+.2e} °/h",
+            s.t_start_s, s.t_end_s, s.temp_lo_c, s.temp_hi_c, s.phase, s.effect_dph
+        );
+    }
+    for f in &d.findings {
+        println!("{}", f.explanation);
+    }
+    if let Some(p) = &args.json {
+        let text = serde_json::to_string_pretty(&d)?;
+        crate::recording::write_atomic(p, text.as_bytes())?;
+    }
+    Ok(())
+}

@@ -1,0 +1,314 @@
+//! From a recording and a physics model to the series the diagnosis fits: the driving series
+//! (recorded temperature, dT/dt from the board's estimator), 100 s block means, and the
+//! baseline model's columns (each linear parameter's unit contribution, computed by the
+//! shared physics library).
+
+use serde::{Deserialize, Serialize};
+
+use super::DiagnoseError;
+use crate::metrics::block_means;
+use crate::physics::{contribution, Role, Term};
+use crate::recording::Recording;
+
+/// Length of the averaging blocks, s (the paper's 100 s means).
+pub const BLOCK_S: f64 = 100.0;
+
+/// A physics model: the terms with initial parameters (TOML `[[terms]]`, as in scenarios).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PhysicsModel {
+    /// Short name.
+    #[serde(default)]
+    pub name: String,
+    /// The terms.
+    pub terms: Vec<Term>,
+}
+
+/// The paper's model: Earth rate, cubic static polynomial and the rate terms of Eq. (11).
+pub const PAPER_MODEL_TOML: &str = include_str!("../../models/paper.toml");
+
+impl PhysicsModel {
+    /// Parses a model from TOML text; `origin` names it in errors.
+    pub fn from_toml(text: &str, origin: &str) -> Result<Self, DiagnoseError> {
+        let m: PhysicsModel = toml::from_str(text).map_err(|e| DiagnoseError::Model {
+            origin: origin.to_string(),
+            message: e.to_string(),
+        })?;
+        for t in &m.terms {
+            t.validate().map_err(|message| DiagnoseError::Model {
+                origin: origin.to_string(),
+                message,
+            })?;
+        }
+        Ok(m)
+    }
+
+    /// The paper's model (see [`PAPER_MODEL_TOML`]).
+    pub fn paper() -> Self {
+        // The embedded file is checked by a unit test, so this cannot fail at run time.
+        Self::from_toml(PAPER_MODEL_TOML, "models/paper.toml").unwrap_or(PhysicsModel {
+            name: "paper".into(),
+            terms: Vec::new(),
+        })
+    }
+
+    /// Whether the model holds a term of this name.
+    pub fn has(&self, name: &str) -> bool {
+        self.terms.iter().any(|t| t.name() == name)
+    }
+}
+
+/// Driving series at the recording's rate.
+#[derive(Clone, Debug)]
+pub struct DriveSeries {
+    /// s.
+    pub t_s: Vec<f64>,
+    /// Temperature driving the model, °C.
+    pub temp_c: Vec<f64>,
+    /// dT/dt from the estimator, °C/s.
+    pub dtemp_c_per_s: Vec<f64>,
+}
+
+impl DriveSeries {
+    /// The drive as it would be if the recorded temperature lagged the body by `tau_s`
+    /// (τ·dT_s/dt = T_c − T_s, so T_c = T_s + τ·dT_s/dt exactly); dT_c/dt by the same
+    /// centred difference over the corrected series.
+    pub fn unlagged(&self, tau_s: f64, dt_s: f64) -> Result<DriveSeries, DiagnoseError> {
+        let temp: Vec<f64> = self
+            .temp_c
+            .iter()
+            .zip(&self.dtemp_c_per_s)
+            .map(|(t, r)| t + tau_s * r)
+            .collect();
+        let rate = estimate_rate(&temp, &self.t_s, dt_s)?;
+        Ok(DriveSeries {
+            t_s: self.t_s.clone(),
+            temp_c: temp,
+            dtemp_c_per_s: rate,
+        })
+    }
+}
+
+/// Half-width of the centred difference that estimates dT/dt, s.
+pub const RATE_HALF_WIDTH_S: f64 = 30.0;
+
+/// dT/dt by a centred difference over ±30 s (one-sided at the ends), °C/s.
+///
+/// Not the board's causal α-β estimator (`compensator_core::RateEstimator`): on the body's
+/// curved temperature at the ends of each ramp that estimator lags by an amount ∝ d²T/dt²,
+/// and through the rate terms (2.16 °/h per °C/s) this lag is itself a model mismatch — on a
+/// simulated recording with nothing hidden it scored ΔBIC −30 as a "sensor lag". The
+/// diagnosis tests the physics, which is written in the true dT/dt; the centred difference
+/// has no phase lag, and with 0.01 °C readings its noise is 0.01/60/√6 ≈ 7e-5 °C/s per
+/// sample, 0.2 % of a 1 °C/min ramp, before the 100 s averaging.
+fn estimate_rate(temp_c: &[f64], t_s: &[f64], _dt_s: f64) -> Result<Vec<f64>, DiagnoseError> {
+    let n = temp_c.len();
+    if let Some(i) = temp_c.iter().chain(t_s).position(|v| !v.is_finite()) {
+        return Err(DiagnoseError::NonFinite {
+            index: i % n.max(1),
+        });
+    }
+    let dt = if n > 1 {
+        (t_s[n - 1] - t_s[0]) / (n - 1) as f64
+    } else {
+        1.0
+    };
+    let h = ((RATE_HALF_WIDTH_S / dt).round() as usize).max(1);
+    Ok((0..n)
+        .map(|i| {
+            let (a, b) = (i.saturating_sub(h), (i + h).min(n - 1));
+            if b > a {
+                (temp_c[b] - temp_c[a]) / (t_s[b] - t_s[a])
+            } else {
+                0.0
+            }
+        })
+        .collect())
+}
+
+/// The recording prepared for fitting.
+#[derive(Clone, Debug)]
+pub struct Prepared {
+    /// Sample period, s.
+    pub dt_s: f64,
+    /// Samples per block.
+    pub block: usize,
+    /// The drive (starting after the estimator's warm-up), whole blocks only.
+    pub drive: DriveSeries,
+    /// Recorded rate over the same samples, °/h.
+    pub rate_dph: Vec<f64>,
+    /// The drive over the whole recording (the estimator's warm-up included).
+    pub full_drive: DriveSeries,
+    /// The samples of `full_drive` that `drive` holds.
+    pub range: std::ops::Range<usize>,
+    /// Block means of the rate, °/h.
+    pub y_b: Vec<f64>,
+    /// Block means of time (s), temperature (°C), dT/dt (°C/s).
+    pub t_b: Vec<f64>,
+    /// °C.
+    pub temp_b: Vec<f64>,
+    /// °C/s.
+    pub dtemp_b: Vec<f64>,
+}
+
+impl Prepared {
+    /// Number of blocks.
+    pub fn nb(&self) -> usize {
+        self.y_b.len()
+    }
+
+    /// The drive un-lagged by `tau_s` (see [`DriveSeries::unlagged`]), computed over the
+    /// whole recording so the estimator's warm-up falls outside the fitted samples.
+    pub fn drive_unlagged(&self, tau_s: f64) -> Result<DriveSeries, DiagnoseError> {
+        let full = self.full_drive.unlagged(tau_s, self.dt_s)?;
+        let r = self.range.clone();
+        Ok(DriveSeries {
+            t_s: full.t_s[r.clone()].to_vec(),
+            temp_c: full.temp_c[r.clone()].to_vec(),
+            dtemp_c_per_s: full.dtemp_c_per_s[r].to_vec(),
+        })
+    }
+
+    /// Block means of a per-sample series.
+    pub fn blocks(&self, x: &[f64]) -> Vec<f64> {
+        block_means(x, self.block)
+    }
+}
+
+/// Minimum number of 100 s blocks for a diagnosis (about 5.5 h).
+pub const MIN_BLOCKS: usize = 200;
+
+/// Prepares a recording: computes dT/dt by a centred difference, drops the first 30 s and any
+/// partial last block.
+pub fn prepare(rec: &Recording) -> Result<Prepared, DiagnoseError> {
+    let n = rec.len();
+    if n < 3 {
+        return Err(DiagnoseError::TooShort {
+            blocks: 0,
+            min: MIN_BLOCKS,
+        });
+    }
+    let dt_s = (rec.time_s[n - 1] - rec.time_s[0]) / (n - 1) as f64;
+    let rate_all = estimate_rate(&rec.temp_c, &rec.time_s, dt_s)?;
+    let block = (BLOCK_S / dt_s).round().max(1.0) as usize;
+    // The first and last ±30 s have one-sided differences; the start is dropped (the end is
+    // usually cut by the partial last block).
+    let skip = ((RATE_HALF_WIDTH_S / dt_s).ceil() as usize).min(n);
+    let usable = (n - skip) / block * block;
+    let nb = usable / block;
+    if nb < MIN_BLOCKS {
+        return Err(DiagnoseError::TooShort {
+            blocks: nb,
+            min: MIN_BLOCKS,
+        });
+    }
+    let r = skip..skip + usable;
+    let drive = DriveSeries {
+        t_s: rec.time_s[r.clone()].to_vec(),
+        temp_c: rec.temp_c[r.clone()].to_vec(),
+        dtemp_c_per_s: rate_all[r.clone()].to_vec(),
+    };
+    let rate_dph = rec.rate_dph[r.clone()].to_vec();
+    let full_drive = DriveSeries {
+        t_s: rec.time_s.clone(),
+        temp_c: rec.temp_c.clone(),
+        dtemp_c_per_s: rate_all,
+    };
+    Ok(Prepared {
+        full_drive,
+        range: r,
+        dt_s,
+        block,
+        y_b: block_means(&rate_dph, block),
+        t_b: block_means(&drive.t_s, block),
+        temp_b: block_means(&drive.temp_c, block),
+        dtemp_b: block_means(&drive.dtemp_c_per_s, block),
+        drive,
+        rate_dph,
+    })
+}
+
+/// One column of a design: a linear parameter's unit contribution per sample.
+#[derive(Clone, Debug)]
+pub struct Column {
+    /// Which term and parameter, e.g. `static_poly.coeffs_dph[2]`.
+    pub name: String,
+    /// °/h per unit of the parameter, per sample.
+    pub values: Vec<f64>,
+}
+
+/// The baseline model's columns evaluated on `drive`, each a linear parameter of the model:
+/// a constant (Earth rate and any offset), each `static_poly` coefficient, the three rate
+/// terms, and the amplitude of any other bias term at its given non-linear parameters.
+/// Sensor terms of the model (a `sensor_lag`) are applied to the drive by the caller.
+pub fn baseline_columns(model: &PhysicsModel, drive: &DriveSeries) -> Vec<Column> {
+    let (t, x, r) = (&drive.t_s, &drive.temp_c, &drive.dtemp_c_per_s);
+    let n = t.len();
+    let mut cols = vec![Column {
+        name: "offset".into(),
+        values: vec![1.0; n],
+    }];
+    for term in &model.terms {
+        match term {
+            Term::EarthRate { .. } => {}
+            Term::StaticPoly {
+                center_c,
+                scale_c,
+                coeffs_dph,
+            } => {
+                // The constant is the offset column; one column per higher power.
+                for k in 1..coeffs_dph.len() {
+                    let mut unit = vec![0.0; coeffs_dph.len()];
+                    unit[k] = 1.0;
+                    let u = Term::StaticPoly {
+                        center_c: *center_c,
+                        scale_c: *scale_c,
+                        coeffs_dph: unit,
+                    };
+                    cols.push(Column {
+                        name: format!("static_poly.coeffs_dph[{k}]"),
+                        values: contribution(&u, t, x, r),
+                    });
+                }
+            }
+            Term::RateTerms { .. } => {
+                for (name, (a, b, c)) in [
+                    ("linear", (1.0, 0.0, 0.0)),
+                    ("cubic", (0.0, 1.0, 0.0)),
+                    ("temp_linear", (0.0, 0.0, 1.0)),
+                ] {
+                    let u = Term::RateTerms {
+                        linear: a,
+                        cubic: b,
+                        temp_linear: c,
+                    };
+                    cols.push(Column {
+                        name: format!("rate_terms.{name}"),
+                        values: contribution(&u, t, x, r),
+                    });
+                }
+            }
+            other if other.role() == Role::Bias => {
+                if let Some(u) = super::candidates::unit_amplitude(other) {
+                    cols.push(Column {
+                        name: format!("{}.amplitude", other.name()),
+                        values: contribution(&u, t, x, r),
+                    });
+                }
+            }
+            _ => {}
+        }
+    }
+    cols
+}
+
+/// The drive the model sees: the recorded one, un-lagged when the model has a `sensor_lag`.
+pub fn model_drive(model: &PhysicsModel, prep: &Prepared) -> Result<DriveSeries, DiagnoseError> {
+    match model.terms.iter().find_map(|t| match t {
+        Term::SensorLag { tau_s } => Some(*tau_s),
+        _ => None,
+    }) {
+        Some(tau) if tau > 0.0 => prep.drive_unlagged(tau),
+        _ => Ok(prep.drive.clone()),
+    }
+}

@@ -1,0 +1,117 @@
+//! End-to-end checks against the simulator's ground truth.
+
+use super::*;
+use crate::physics::Term;
+use crate::simulate::{simulate, Scenario};
+
+/// The dynamic scenario shortened to two 1 °C/min cycles of 10 … 65 °C with 1.5 h holds
+/// (≈ 9.7 h), its 5 s sensor lag removed, with `extra` terms added.
+fn scenario(extra: Vec<Term>, noise_scale: f64) -> Scenario {
+    let text = include_str!("../../scenarios/yu2011-dynamic.toml");
+    let mut s: Scenario = toml::from_str(text).expect("scenario parses");
+    s.profile = toml::from_str::<toml::Table>(
+        r#"p = [{ kind = "repeat", count = 2, segments = [
+            { kind = "hold", duration_s = 5400.0 },
+            { kind = "ramp", to_c = 65.0, rate_c_per_min = 1.0 },
+            { kind = "hold", duration_s = 5400.0 },
+            { kind = "ramp", to_c = 10.0, rate_c_per_min = 1.0 } ] }]"#,
+    )
+    .ok()
+    .and_then(|t| t.get("p").cloned())
+    .and_then(|v| v.try_into().ok())
+    .expect("profile parses");
+    s.terms.retain(|t| !matches!(t, Term::SensorLag { .. }));
+    s.terms.extend(extra);
+    s.noise.arw_dph_rt_h *= noise_scale;
+    s.noise.bias_instability_dph *= noise_scale;
+    s.noise.rrw_dph_per_rt_h *= noise_scale;
+    s
+}
+
+fn run(extra: Vec<Term>, seed: u64) -> Diagnosis {
+    let sim = simulate(&scenario(extra, 1.0), seed).expect("simulates");
+    diagnose(&sim.recording, &PhysicsModel::paper(), &Options::default()).expect("diagnoses")
+}
+
+#[test]
+fn paper_model_file_parses() {
+    let m = PhysicsModel::from_toml(prepare::PAPER_MODEL_TOML, "paper").expect("parses");
+    let names: Vec<&str> = m.terms.iter().map(|t| t.name()).collect();
+    assert_eq!(names, ["earth_rate", "static_poly", "rate_terms"]);
+}
+
+/// A recording with nothing hidden is `consistent` (under the paper's own noise).
+#[test]
+fn no_effect_is_consistent() {
+    let d = run(vec![], 11);
+    assert_eq!(d.verdict, Verdict::Consistent, "{:#?}", d.evidence);
+    assert!(d.findings.is_empty());
+}
+
+/// A 300 s sensor lag (against the truth's 0 s) is attributed to `sensor_lag` with τ within
+/// 20 % of the injected value.
+#[test]
+fn injected_sensor_lag_is_found_with_its_tau() {
+    let d = run(vec![Term::SensorLag { tau_s: 300.0 }], 12);
+    assert_eq!(d.verdict, Verdict::MissingPhysics, "{:#?}", d.evidence);
+    let f = &d.findings[0];
+    assert_eq!(f.mechanism, "sensor_lag", "{:#?}", d.evidence);
+    let tau = f.parameters["tau_s"];
+    assert!((tau / 300.0 - 1.0).abs() < 0.2, "tau {tau}");
+}
+
+/// A hysteresis of 0.004 °/h half-gap (a quarter of the 1 s noise σ) is found, with its
+/// width within 20 %.
+#[test]
+fn injected_hysteresis_is_found() {
+    let d = run(
+        vec![Term::Hysteresis {
+            width_c: 8.0,
+            height_dph: 0.004,
+        }],
+        13,
+    );
+    assert_eq!(d.verdict, Verdict::MissingPhysics, "{:#?}", d.evidence);
+    let f = &d.findings[0];
+    assert_eq!(f.mechanism, "hysteresis");
+    assert!(
+        (f.parameters["width_c"] / 8.0 - 1.0).abs() < 0.2,
+        "{:?}",
+        f.parameters
+    );
+    assert!(f.improved.b100_dph < d.baseline.b100_dph);
+}
+
+/// The JSON carries the contract's field names, with `where` (not `where_`).
+#[test]
+fn json_contract_field_names() {
+    let d = run(
+        vec![Term::Aging {
+            rate_dph_per_day: 0.01,
+        }],
+        14,
+    );
+    let v: serde_json::Value = serde_json::to_value(&d).expect("serialises");
+    assert!(["consistent", "missing_physics", "unexplained_structure"]
+        .contains(&v["verdict"].as_str().unwrap_or("")));
+    for k in ["rms_dph", "b100_dph", "bic"] {
+        assert!(v["baseline"][k].is_f64(), "baseline.{k}");
+    }
+    let f = &v["findings"][0];
+    for k in [
+        "mechanism",
+        "parameters",
+        "uncertainty",
+        "where",
+        "delta_bic",
+        "improved",
+        "explanation",
+    ] {
+        assert!(!f[k].is_null(), "findings[0].{k} missing: {v:#}");
+    }
+    assert_eq!(f["mechanism"], "aging");
+    assert!(f["parameters"]["rate_dph_per_day"].is_f64());
+    for k in ["t_start_s", "t_end_s", "temp_lo_c", "temp_hi_c", "phase"] {
+        assert!(!f["where"][0][k].is_null(), "where.{k}");
+    }
+}
