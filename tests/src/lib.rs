@@ -11,6 +11,9 @@ pub mod e2e;
 pub mod firmware;
 pub mod replay;
 
+/// Support vectors in the committed default board table.
+pub const DEFAULT_TABLE_SV: usize = default_table::MODEL.support.len();
+
 /// The committed default board table (`firmware/src/model_table.rs`), compiled in here.
 pub fn default_model_table() -> &'static compensator_core::ModelTable<
     { default_table::MODEL.support.len() },

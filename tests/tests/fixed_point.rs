@@ -29,14 +29,17 @@ fn f64_reference(m: &ModelRef<'_, 2>, x: [f64; 2]) -> f64 {
         + f64::from(s.bias_dph)
 }
 
+/// Support vectors of the committed default table.
+const SV: usize = tests::DEFAULT_TABLE_SV;
+
 /// The board's input path: standardise in f32 (as the f32 evaluator does), convert to Q24.
-fn fixed_at(fm: &FixedModel<350, 2>, m: &ModelRef<'_, 2>, x: [f32; 2]) -> Dph {
+fn fixed_at(fm: &FixedModel<SV, 2>, m: &ModelRef<'_, 2>, x: [f32; 2]) -> Dph {
     let z = m.standardise(&x);
     let zq: [Z; 2] = core::array::from_fn(|d| Q::from_f32_bits(z[d].to_bits()).expect("in range"));
     fm.predict(&zq)
 }
 
-fn model() -> (FixedModel<350, 2>, ModelRef<'static, 2>) {
+fn model() -> (FixedModel<SV, 2>, ModelRef<'static, 2>) {
     let t = tests::default_model_table();
     (
         FixedModel::from_table(t).expect("the board table has a Q form"),

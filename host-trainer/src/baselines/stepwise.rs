@@ -3,8 +3,8 @@
 //!
 //! Procedure (Efroymson's, as in common statistics packages): starting from the intercept
 //! alone, (1) while some candidate outside the model has an entry p-value < `alpha_enter`,
-//! add the one with the smallest p-value; (2) if some term in the model has a p-value
-//! > `alpha_remove`, remove the one with the largest and go back to (1); otherwise stop.
+//! add the one with the smallest p-value; (2) if some term in the model has a p-value above
+//! `alpha_remove`, remove the one with the largest and go back to (1); otherwise stop.
 //! p-values are upper tails of F(1, n − k − 1) for the partial F statistic
 //! F = (RSS_small − RSS_big) / (RSS_big / (n − k − 1)), k = terms in the bigger model.
 //! Requiring `alpha_enter ≤ alpha_remove` keeps a term from entering and leaving forever.

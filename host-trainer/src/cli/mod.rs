@@ -1,8 +1,8 @@
 //! The `rlg` command line: argument parsing and printing on top of the library.
 
 pub mod bench;
-pub mod default_table;
 pub mod benchmark_diagnose;
+pub mod default_table;
 pub mod diagnose;
 pub mod export;
 pub mod fleet;
