@@ -17,6 +17,9 @@ pub struct SimulateArgs {
     /// Output recording (CSV); the truth goes to `<stem>.truth.json` beside it.
     #[arg(long)]
     pub out: PathBuf,
+    /// Also draw temperatures and rate against time to this PNG.
+    #[arg(long, value_name = "PNG")]
+    pub plot: Option<PathBuf>,
 }
 
 /// Runs the subcommand.
@@ -32,5 +35,10 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         args.out.display(),
         truth_path(&args.out).display()
     );
+    if let Some(png) = &args.plot {
+        let fig = crate::simulate::figure::scenario_figure(&scenario.name, &sim.recording);
+        crate::plot::render_png(&fig, png).with_context(|| format!("drawing {}", png.display()))?;
+        eprintln!("plot → {}", png.display());
+    }
     Ok(())
 }

@@ -4,6 +4,7 @@
 //! Deterministic: one ChaCha8 stream consumed sequentially, fixed output formats, so the same
 //! scenario and seed give byte-identical files on every machine.
 
+pub mod figure;
 pub mod noise;
 pub mod scenario;
 pub mod thermal;
