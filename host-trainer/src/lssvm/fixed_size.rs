@@ -326,26 +326,9 @@ mod tests {
     use super::*;
     use crate::lssvm::solve::solve_dense_reference;
 
-    /// Scattered 2-D inputs (a quasi-random sequence) and a smooth target.
+    /// The shared scattered 2-D fixture, as rows.
     fn data(n: usize) -> (Rows, Vec<f64>) {
-        let z: Vec<Vec<f64>> = (0..n)
-            .map(|i| {
-                let t = i as f64;
-                vec![
-                    (t * 0.618_033_988_7).fract() * 3.4 - 1.7,
-                    (t * 0.414_213_562_4).fract() * 3.4 - 1.7,
-                ]
-            })
-            .collect();
-        let y = z
-            .iter()
-            .enumerate()
-            .map(|(i, r)| {
-                (1.3 * r[0]).sin()
-                    + 0.4 * r[1] * r[0]
-                    + 0.01 * ((i * 7919 % 101) as f64 / 101.0 - 0.5)
-            })
-            .collect();
+        let (z, y) = crate::lssvm::test_data::scattered(n);
         (Rows::from_rows(&z), y)
     }
 

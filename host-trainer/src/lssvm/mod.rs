@@ -165,3 +165,30 @@ impl Lssvm {
         self.features.len()
     }
 }
+
+#[cfg(test)]
+pub(crate) mod test_data {
+    /// Deterministic scattered 2-D inputs (a quasi-random sequence) and a smooth target with
+    /// a little "noise", shared by the solver tests.
+    pub fn scattered(n: usize) -> (Vec<Vec<f64>>, Vec<f64>) {
+        let z: Vec<Vec<f64>> = (0..n)
+            .map(|i| {
+                let t = i as f64;
+                vec![
+                    (t * 0.618_033_988_7).fract() * 3.4 - 1.7,
+                    (t * 0.414_213_562_4).fract() * 3.4 - 1.7,
+                ]
+            })
+            .collect();
+        let y = z
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                (1.3 * r[0]).sin()
+                    + 0.4 * r[1] * r[0]
+                    + 0.01 * ((i * 7919 % 101) as f64 / 101.0 - 0.5)
+            })
+            .collect();
+        (z, y)
+    }
+}

@@ -226,28 +226,7 @@ pub fn solve_dense_reference(
 mod tests {
     use super::*;
 
-    /// Deterministic scattered 2-D inputs and a smooth target with a little "noise".
-    fn data(n: usize) -> (Vec<Vec<f64>>, Vec<f64>) {
-        let z: Vec<Vec<f64>> = (0..n)
-            .map(|i| {
-                let t = i as f64;
-                vec![
-                    (t * 0.618_033_988_7).fract() * 3.4 - 1.7,
-                    (t * 0.414_213_562_4).fract() * 3.4 - 1.7,
-                ]
-            })
-            .collect();
-        let y = z
-            .iter()
-            .enumerate()
-            .map(|(i, r)| {
-                (1.3 * r[0]).sin()
-                    + 0.4 * r[1] * r[0]
-                    + 0.01 * ((i * 7919 % 101) as f64 / 101.0 - 0.5)
-            })
-            .collect();
-        (z, y)
-    }
+    use crate::lssvm::test_data::scattered as data;
 
     fn rel_err(a: f64, b: f64, scale: f64) -> f64 {
         (a - b).abs() / scale
