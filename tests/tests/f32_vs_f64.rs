@@ -138,20 +138,8 @@ fn two_input_model_agrees_along_a_feature_sequence() {
     assert!(worst_corr <= F32_VS_F64_BUDGET_DPH, "{worst_corr:e}");
 }
 
-/// Yu et al. 2011, Table 1 (gyro body temperature, °C; gyro output, °/h).
-const TABLE1_CSV: &str = "\
-chamber_c,temp_c,rate_dph,quad_err_1e4_dph,lssvm_err_1e4_dph\n\
--40,-34.80,-7.0771,-13.8,-1.67\n\
--30,-24.89,-7.0864,7.89,5.01\n\
--20,-14.97,-7.0926,5.53,-4.91\n\
--10,-4.94,-7.0987,8.33,-1.77\n\
-0,5.09,-7.1040,11.0,7.05\n\
-10,14.80,-7.1066,-5.56,-2.08\n\
-20,24.75,-7.1096,-11.9,-3.32\n\
-30,33.74,-7.1128,-6.15,2.65\n\
-40,45.05,-7.1150,-8.86,-5.34\n\
-50,54.07,-7.1182,9.83,7.28\n\
-60,63.59,-7.1184,3.67,-2.81\n";
+/// Yu et al. 2011, Table 1, as shipped in the repository (with its citation comments).
+const TABLE1_CSV: &str = include_str!("../../host-trainer/data/yu2011_table1_static.csv");
 
 #[test]
 fn table1_static_model_agrees() {

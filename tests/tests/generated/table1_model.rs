@@ -4,7 +4,7 @@
 // Features: temp_c; N = 11 support vectors.
 // sigma = 1.0 (standardised units), c = 10000.0.
 // dT/dt filter: tau = 60.0 s at dt = 1.0 s.
-// Training data: yu2011_table1_static.csv (rows) (375 bytes, SHA-256 a80f2fca21a0a44c6d3bbbd8c5fa74f2057fba488a86db3a42b58d2a18fdf3a9).
+// Training data: yu2011_table1_static.csv (rows) (729 bytes, SHA-256 5e689c6726d0751179098dfda360118db8f02c1562507a5e222f5fb37879fd18).
 // Trained by: ModelFile::train(table 1, sigma 1, c 1e4, rate_tau_s 60, dt_s 1)
 // TRAINING errors over 11 samples: RMS 3.756e-4 °/h, max |error| 5.844e-4 °/h.
 
