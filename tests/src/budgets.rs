@@ -169,19 +169,7 @@ pub fn build_image(
         program: "cargo".into(),
         source,
     })?;
-    if !out.status.success() {
-        return Err(FirmwareError::Build {
-            status: out.status,
-            stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
-        });
-    }
-    let exe = String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
-        .filter(|v| v["reason"] == "compiler-artifact" && v["target"]["name"] == "firmware")
-        .filter_map(|v| v["executable"].as_str().map(PathBuf::from))
-        .next_back()
-        .ok_or(FirmwareError::NoExecutable)?;
+    let exe = firmware::built_executable(&out)?;
     std::fs::copy(&exe, dest).map_err(|source| FirmwareError::Io {
         path: exe.display().to_string(),
         source,

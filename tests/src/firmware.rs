@@ -178,21 +178,43 @@ fn build(
             program: "cargo".into(),
             source,
         })?;
+    let exe = built_executable(&out)?;
+    std::fs::copy(&exe, dest).map_err(io_err(&exe))?;
+    Ok(())
+}
+
+/// The firmware executable named by a `cargo build --message-format json…` run, or the
+/// build's diagnostics when it failed.
+pub fn built_executable(out: &std::process::Output) -> Result<PathBuf, FirmwareError> {
     if !out.status.success() {
         return Err(FirmwareError::Build {
             status: out.status,
             stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
         });
     }
-    let exe = String::from_utf8_lossy(&out.stdout)
+    String::from_utf8_lossy(&out.stdout)
         .lines()
         .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
         .filter(|v| v["reason"] == "compiler-artifact" && v["target"]["name"] == "firmware")
         .filter_map(|v| v["executable"].as_str().map(PathBuf::from))
         .next_back()
-        .ok_or(FirmwareError::NoExecutable)?;
-    std::fs::copy(&exe, dest).map_err(io_err(&exe))?;
-    Ok(())
+        .ok_or(FirmwareError::NoExecutable)
+}
+
+/// Whether a QEMU test can run: `true` when `qemu-system-arm` is installed. Without it the
+/// test is skipped loudly, except under CI (`CI` set), where a missing QEMU is a failure.
+pub fn qemu_or_skip(test: &str) -> bool {
+    if qemu_available() {
+        return true;
+    }
+    assert!(
+        !under_ci(),
+        "CI is set but {QEMU} is missing: run `bash tests/setup.sh`"
+    );
+    eprintln!(
+        "\n!!! SKIPPED {test}: {QEMU} not found; run `bash tests/setup.sh` to install it !!!\n"
+    );
+    false
 }
 
 /// One `S` line of the image's output: inputs and outputs as exact bit patterns.

@@ -12,13 +12,7 @@ use tests::{firmware, replay};
 
 #[test]
 fn cortex_m3_fixed_point_matches_host_bit_for_bit() {
-    if !firmware::qemu_available() {
-        assert!(
-            !firmware::under_ci(),
-            "CI is set but {} is missing: run `bash tests/setup.sh`",
-            firmware::QEMU
-        );
-        eprintln!("\n!!! SKIPPED: {} not found !!!\n", firmware::QEMU);
+    if !firmware::qemu_or_skip("cortex_m3_fixed_point_matches_host_bit_for_bit") {
         return;
     }
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));

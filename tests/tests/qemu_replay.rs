@@ -31,26 +31,9 @@ const BITS: [(Status, &str); 5] = [
     (Status::TABLE_FAULT, "table_fault"),
 ];
 
-/// Whether QEMU is there; if not, says so loudly, and fails under CI.
-fn qemu_or_skip(test: &str) -> bool {
-    if firmware::qemu_available() {
-        return true;
-    }
-    assert!(
-        !firmware::under_ci(),
-        "CI is set but {} is missing: run `bash tests/setup.sh`",
-        firmware::QEMU
-    );
-    eprintln!(
-        "\n!!! SKIPPED {test}: {} not found; run `bash tests/setup.sh` to install it !!!\n",
-        firmware::QEMU
-    );
-    false
-}
-
 #[test]
 fn qemu_replay_matches_host_bit_for_bit() {
-    if !qemu_or_skip("qemu_replay_matches_host_bit_for_bit") {
+    if !firmware::qemu_or_skip("qemu_replay_matches_host_bit_for_bit") {
         return;
     }
     let t_start = Instant::now();
@@ -210,7 +193,7 @@ fn qemu_replay_matches_host_bit_for_bit() {
 /// A panic and a HardFault end QEMU with exit code 1 and a log line, instead of hanging.
 #[test]
 fn panic_and_hardfault_exit_qemu_with_failure() {
-    if !qemu_or_skip("panic_and_hardfault_exit_qemu_with_failure") {
+    if !firmware::qemu_or_skip("panic_and_hardfault_exit_qemu_with_failure") {
         return;
     }
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
