@@ -7,6 +7,7 @@ pub mod diagnose;
 pub mod export;
 pub mod fleet;
 pub mod simulate;
+pub mod static_repro;
 pub mod train;
 
 use clap::{Parser, Subcommand};
@@ -43,6 +44,8 @@ pub enum Command {
     Diagnose(diagnose::DiagnoseArgs),
     /// Run the concealed-effect benchmark of the diagnosis and print its table.
     BenchmarkDiagnose(benchmark_diagnose::BenchmarkDiagnoseArgs),
+    /// Reproduce the static least-squares quadratic of Table 1 / Fig. 2(a).
+    StaticRepro(static_repro::Args),
 }
 
 impl Cli {
@@ -59,6 +62,7 @@ impl Cli {
             Command::SparseReport(a) => bench::run_sparse(&a),
             Command::Diagnose(a) => diagnose::run(&a),
             Command::BenchmarkDiagnose(a) => benchmark_diagnose::run(&a),
+            Command::StaticRepro(a) => static_repro::run(&a),
         }
     }
 }

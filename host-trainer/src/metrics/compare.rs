@@ -52,6 +52,11 @@ fn fmt_sig(v: f64) -> String {
     }
 }
 
+/// Escapes the Markdown cell separator so names like "max |e|" keep the table intact.
+fn escape(s: &str) -> String {
+    s.replace('|', "\\|")
+}
+
 /// A Markdown table: figure | unit | ours | paper | ours/paper ("—" where absent).
 pub fn markdown_table(rows: &[FigureOfMerit]) -> String {
     let mut s =
@@ -60,8 +65,8 @@ pub fn markdown_table(rows: &[FigureOfMerit]) -> String {
         let dash = || "—".to_string();
         s.push_str(&format!(
             "| {} | {} | {} | {} | {} |\n",
-            r.name,
-            r.unit,
+            escape(&r.name),
+            escape(&r.unit),
             fmt_sig(r.ours),
             r.paper.map_or_else(dash, fmt_sig),
             r.ratio_to_paper().map_or_else(dash, |x| format!("{x:.2}")),
@@ -97,5 +102,7 @@ mod tests {
             "| 100 s stability, raw | °/h | 0.01040 | 0.01020 | 1.02 |"
         );
         assert_eq!(lines[3], "| max LOO error | °/h | 1.230e-4 | — | — |");
+        let t = markdown_table(&[FigureOfMerit::new("max |e|", "°/h", 1.0, None)]);
+        assert!(t.contains("| max \\|e\\| | °/h |"), "{t}");
     }
 }

@@ -1,0 +1,69 @@
+//! `rlg static-repro`: the paper's static model (Table 1, Fig. 2(a)) reproduced.
+
+use crate::baselines::static_quadratic;
+use crate::metrics::compare::{markdown_table, FigureOfMerit};
+use crate::{plot, table1};
+use anyhow::Context;
+use std::path::PathBuf;
+
+/// Arguments of `rlg static-repro`.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Table 1 CSV (default: the copy bundled with the crate).
+    #[arg(long)]
+    pub table: Option<PathBuf>,
+    /// Write a Fig. 2(a)-style PNG here.
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+}
+
+/// Fits the quadratic, prints coefficients, the per-point table and a summary.
+pub fn run(args: &Args) -> anyhow::Result<()> {
+    let rows = match &args.table {
+        Some(p) => table1::read_table1(p)?,
+        None => table1::bundled().context("bundled Table 1")?,
+    };
+    let r = static_quadratic(&rows).context("fitting the quadratic")?;
+    let (c, se) = (r.fit.coefficients(), r.fit.std_errors());
+    println!("Least-squares quadratic of output (°/h) on body temperature T (°C):");
+    println!("  rate_dph = a0 + a1·T + a2·T²");
+    for (k, unit) in ["°/h", "°/h/°C", "°/h/°C²"].iter().enumerate() {
+        println!("  a{k} = {:+.6e} ± {:.2e} {unit}", c[k], se[k]);
+    }
+    println!(
+        "  residual σ = {:.2e} °/h (n − 3 = {} dof)\n",
+        r.fit.sigma(),
+        rows.len() - 3
+    );
+    println!("Errors are prediction − measurement. TRAINING: fit to all points (what the paper");
+    println!("quotes). LOO: the point's error when the quadratic is refitted without it.\n");
+    print!("{}", r.to_markdown());
+    let paper_max = rows
+        .iter()
+        .map(|p| p.quad_err_1e4_dph.abs() * 1e-4)
+        .fold(0.0, f64::max);
+    println!();
+    print!(
+        "{}",
+        markdown_table(&[
+            FigureOfMerit::new(
+                "max |training error|",
+                "°/h",
+                r.max_abs_train_err_dph(),
+                Some(paper_max)
+            ),
+            FigureOfMerit::new("max |LOO error|", "°/h", r.max_abs_loo_err_dph(), None),
+            FigureOfMerit::new(
+                "max |ours − paper|, training errors",
+                "°/h",
+                r.max_abs_diff_from_paper_dph(),
+                None
+            ),
+        ])
+    );
+    if let Some(p) = &args.plot {
+        plot::render_png(&r.figure(), p).with_context(|| format!("writing {}", p.display()))?;
+        println!("\nwrote {}", p.display());
+    }
+    Ok(())
+}
