@@ -3,6 +3,7 @@
 //!
 //! A library with a thin CLI (`rlg`) on top: everything the CLI does is callable from Rust.
 
+pub mod atomic;
 pub mod baselines;
 pub mod bench;
 pub mod cli;

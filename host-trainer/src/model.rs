@@ -4,7 +4,6 @@
 //! Written atomically (temporary file in the same folder, then renamed), read back with a
 //! check of `format_version` before anything else is interpreted.
 
-use std::io::Write;
 use std::path::Path;
 
 use compensator_core::Feature;
@@ -366,22 +365,12 @@ impl ModelFile {
     }
 }
 
-/// Writes `bytes` to a temporary file in `path`'s folder, then renames it over `path`, so a
-/// reader never sees a half-written file.
+/// Writes `bytes` to `path` atomically ([`crate::atomic::write`]).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), ModelError> {
-    let io = |source| ModelError::Io {
+    crate::atomic::write(path, bytes).map_err(|source| ModelError::Io {
         path: path.display().to_string(),
         source,
-    };
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(io)?;
-    tmp.write_all(bytes).map_err(io)?;
-    tmp.as_file().sync_all().map_err(io)?;
-    tmp.persist(path).map_err(|e| io(e.error))?;
-    Ok(())
+    })
 }
 
 fn rms(v: &[f64]) -> f64 {
