@@ -3,6 +3,7 @@
 //! * [`scaling`]: per-feature standardisation fitted on the training inputs.
 //! * [`solve`]: the kernel matrix and the solution of Eq. (9) by Cholesky, a dense reference
 //!   solve, and closed-form leave-one-out residuals.
+//! * [`tune`]: σ and c by closed-form leave-one-out or blocked / group cross-validation.
 //!
 //! [`Lssvm`] ties them together: train on raw features, predict on raw features.
 
@@ -12,6 +13,7 @@ pub mod prune;
 pub mod scaling;
 pub mod solve;
 pub mod sparse;
+pub mod tune;
 
 use serde::{Deserialize, Serialize};
 

@@ -15,7 +15,6 @@
 //! with A the full (n+1)×(n+1) matrix above, y_i − f₋ᵢ(x_i) = a_i / (A⁻¹)_{i+1,i+1}, and the
 //! lower-right block of A⁻¹ is H⁻¹ − ννᵀ/1ᵀν, so only diag(H⁻¹) is needed.
 
-use faer::linalg::solvers::DenseSolveCore;
 use faer::prelude::*;
 use faer::Side;
 
@@ -158,7 +157,9 @@ pub fn solve(z: &[Vec<f64>], y: &[f64], sigma: f64, c: f64) -> Result<Solution, 
 
 /// Solves Eq. (9) and returns the leave-one-out residuals y_i − f₋ᵢ(x_i) (PRESS) with it.
 ///
-/// One factorisation serves both; the inverse of H adds n³ flops.
+/// One factorisation serves both. diag(H⁻¹) comes from L⁻¹ alone: with H = LLᵀ,
+/// (H⁻¹)_ii = ‖column i of L⁻¹‖², so the triangular inverse (n³/3 flops) replaces the full
+/// inverse L⁻ᵀL⁻¹ (2n³/3).
 pub fn solve_with_loo(
     z: &[Vec<f64>],
     y: &[f64],
@@ -166,10 +167,18 @@ pub fn solve_with_loo(
     c: f64,
 ) -> Result<(Solution, Vec<f64>), LssvmError> {
     let f = factorise(z, y, sigma, c)?;
-    let h_inv = f.llt.inverse();
-    let r: Vec<f64> = (0..z.len())
+    let n = z.len();
+    let mut l_inv = Mat::<f64>::zeros(n, n);
+    faer::linalg::triangular_inverse::invert_lower_triangular(
+        l_inv.as_mut(),
+        f.llt.L(),
+        faer::get_global_parallelism(),
+    );
+    let r: Vec<f64> = (0..n)
         .map(|i| {
-            let a_inv_ii = h_inv[(i, i)] - f.nu[i] * f.nu[i] / f.s;
+            // Column i of the lower-triangular L⁻¹ is non-zero from row i down.
+            let h_inv_ii: f64 = (i..n).map(|k| l_inv[(k, i)] * l_inv[(k, i)]).sum();
+            let a_inv_ii = h_inv_ii - f.nu[i] * f.nu[i] / f.s;
             f.solution.alpha[i] / a_inv_ii
         })
         .collect();

@@ -1,0 +1,490 @@
+//! Automatic choice of the kernel width σ and the regularisation c of an exact LS-SVM by
+//! cross-validation over a logarithmic grid with local refinement.
+//!
+//! Two validation schemes, for two kinds of data:
+//! * [`Validation::LeaveOneOut`]: the closed-form leave-one-out residuals of LS-SVM (PRESS,
+//!   [`super::solve::solve_with_loo`]); exact and cheap, but right only for independent
+//!   samples such as the static test's temperature points.
+//! * [`Validation::Blocked`] and [`Validation::Groups`]: for time series, whose neighbouring
+//!   samples share slow noise (a left-out 100 s mean is predicted from its neighbours, which
+//!   flatters small σ). Blocked CV leaves out interleaved runs of contiguous samples; group CV
+//!   leaves out one labelled group at a time (e.g. one temperature cycle).
+//!
+//! The score is the RMS of the out-of-fold residuals (°/h). The coarse grid σ × c is evaluated
+//! in parallel (rayon, one task per point); then `refine` rounds each evaluate the 3 × 3 grid
+//! at half the previous log step around the best point so far.
+//!
+//! The standardisation is fitted once on all inputs and shared by the folds: it uses the
+//! inputs' spread, never the targets, so no target information leaks into a fold.
+
+use indicatif::ProgressBar;
+use rayon::prelude::*;
+
+use super::{solve, LssvmError, Scaling};
+
+/// How the out-of-sample error of a (σ, c) is estimated.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Validation {
+    /// Closed-form leave-one-out residuals (PRESS): independent samples.
+    LeaveOneOut,
+    /// `folds` folds of interleaved blocks: sample i belongs to fold (i / `block`) mod `folds`.
+    Blocked {
+        /// Contiguous samples per block.
+        block: usize,
+        /// Number of folds (≥ 2).
+        folds: usize,
+    },
+    /// Leave one group out: `groups[i]` labels sample i (e.g. its temperature cycle).
+    Groups(Vec<usize>),
+}
+
+impl Validation {
+    /// A one-line description for reports.
+    pub fn describe(&self) -> String {
+        match self {
+            Validation::LeaveOneOut => "closed-form leave-one-out (PRESS)".to_string(),
+            Validation::Blocked { block, folds } => {
+                format!("blocked {folds}-fold CV, blocks of {block} consecutive samples")
+            }
+            Validation::Groups(g) => {
+                let mut u = g.clone();
+                u.sort_unstable();
+                u.dedup();
+                format!("leave-one-group-out CV over {} groups", u.len())
+            }
+        }
+    }
+}
+
+/// A logarithmic search grid.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Grid {
+    /// Smallest and largest σ (standardised units) of the coarse grid.
+    pub sigma: (f64, f64),
+    /// Points of σ on the coarse grid (≥ 2).
+    pub sigma_points: usize,
+    /// Smallest and largest c of the coarse grid.
+    pub c: (f64, f64),
+    /// Points of c on the coarse grid (≥ 2).
+    pub c_points: usize,
+    /// Rounds of local refinement (each halves the log step).
+    pub refine: usize,
+}
+
+impl Default for Grid {
+    /// σ from 0.05 to 5 (standardised units: a twentieth of a standard deviation to far
+    /// wider than the data), c from 0.1 to 1e5, 9 × 7 points, 3 refinements.
+    fn default() -> Self {
+        Grid {
+            sigma: (0.05, 5.0),
+            sigma_points: 9,
+            c: (0.1, 1e5),
+            c_points: 7,
+            refine: 3,
+        }
+    }
+}
+
+/// One evaluated (σ, c).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CvPoint {
+    /// Kernel width σ, standardised units.
+    pub sigma: f64,
+    /// Regularisation c.
+    pub c: f64,
+    /// RMS of the out-of-fold residuals, °/h; NaN where a fold could not be trained.
+    pub cv_rms_dph: f64,
+}
+
+/// The chosen hyper-parameters and the evidence for them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tuned {
+    /// Chosen σ.
+    pub sigma: f64,
+    /// Chosen c.
+    pub c: f64,
+    /// Its cross-validated RMS, °/h.
+    pub cv_rms_dph: f64,
+    /// The coarse grid, σ outer, c inner (the CV curve).
+    pub curve: Vec<CvPoint>,
+    /// Points evaluated during refinement, in order.
+    pub refined: Vec<CvPoint>,
+    /// What the score is.
+    pub validation: String,
+}
+
+/// Why tuning failed.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum TuneError {
+    /// The data or a fold could not be set up.
+    #[error(transparent)]
+    Lssvm(#[from] LssvmError),
+    /// The grid or the validation scheme is unusable.
+    #[error("invalid tuning setup: {0}")]
+    Setup(String),
+    /// No grid point could be trained on every fold.
+    #[error("no (sigma, c) of the grid could be trained on every fold")]
+    NothingTrained,
+}
+
+/// `n` log-spaced values from `lo` to `hi` inclusive.
+fn log_space(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    let (a, b) = (lo.ln(), hi.ln());
+    (0..n)
+        .map(|i| (a + (b - a) * i as f64 / (n - 1) as f64).exp())
+        .collect()
+}
+
+/// The folds as lists of held-out sample indices.
+fn folds(validation: &Validation, n: usize) -> Result<Vec<Vec<usize>>, TuneError> {
+    match validation {
+        Validation::LeaveOneOut => Ok(Vec::new()),
+        Validation::Blocked { block, folds } => {
+            if *block == 0 || *folds < 2 || n < block * folds {
+                return Err(TuneError::Setup(format!(
+                    "blocked CV needs block ≥ 1, folds ≥ 2 and at least block·folds = {} samples (have {n})",
+                    block * folds
+                )));
+            }
+            Ok((0..*folds)
+                .map(|f| (0..n).filter(|i| (i / block) % folds == f).collect())
+                .collect())
+        }
+        Validation::Groups(g) => {
+            if g.len() != n {
+                return Err(TuneError::Setup(format!(
+                    "{} group labels for {n} samples",
+                    g.len()
+                )));
+            }
+            let mut labels = g.clone();
+            labels.sort_unstable();
+            labels.dedup();
+            if labels.len() < 2 {
+                return Err(TuneError::Setup(
+                    "leave-one-group-out CV needs at least two groups".to_string(),
+                ));
+            }
+            Ok(labels
+                .iter()
+                .map(|l| (0..n).filter(|&i| g[i] == *l).collect())
+                .collect())
+        }
+    }
+}
+
+/// Out-of-fold RMS at one (σ, c); NaN when any fold fails to train.
+fn score(z: &[Vec<f64>], y: &[f64], folds: &[Vec<usize>], sigma: f64, c: f64) -> f64 {
+    if folds.is_empty() {
+        return solve::loo_residuals(z, y, sigma, c).map_or(f64::NAN, |r| {
+            (r.iter().map(|v| v * v).sum::<f64>() / r.len() as f64).sqrt()
+        });
+    }
+    let n = z.len();
+    let mut ss = 0.0;
+    let mut count = 0usize;
+    let mut held = vec![false; n];
+    for fold in folds {
+        held.iter_mut().for_each(|h| *h = false);
+        fold.iter().for_each(|&i| held[i] = true);
+        let (zt, yt): (Vec<Vec<f64>>, Vec<f64>) = (0..n)
+            .filter(|&i| !held[i])
+            .map(|i| (z[i].clone(), y[i]))
+            .unzip();
+        let Ok(sol) = solve::solve(&zt, &yt, sigma, c) else {
+            return f64::NAN;
+        };
+        let inv = 1.0 / (2.0 * sigma * sigma);
+        for &i in fold {
+            let f: f64 = zt
+                .iter()
+                .zip(&sol.alpha)
+                .map(|(s, a)| {
+                    let d2: f64 = s.iter().zip(&z[i]).map(|(p, q)| (p - q) * (p - q)).sum();
+                    a * (-d2 * inv).exp()
+                })
+                .sum::<f64>()
+                + sol.bias;
+            ss += (y[i] - f).powi(2);
+            count += 1;
+        }
+    }
+    (ss / count as f64).sqrt()
+}
+
+fn best(points: &[CvPoint]) -> Option<CvPoint> {
+    points
+        .iter()
+        .filter(|p| p.cv_rms_dph.is_finite())
+        .copied()
+        .min_by(|a, b| a.cv_rms_dph.total_cmp(&b.cv_rms_dph))
+}
+
+fn evaluate(
+    z: &[Vec<f64>],
+    y: &[f64],
+    folds: &[Vec<usize>],
+    pairs: &[(f64, f64)],
+    progress: &ProgressBar,
+) -> Vec<CvPoint> {
+    pairs
+        .par_iter()
+        .map(|&(sigma, c)| {
+            let cv_rms_dph = score(z, y, folds, sigma, c);
+            progress.inc(1);
+            CvPoint {
+                sigma,
+                c,
+                cv_rms_dph,
+            }
+        })
+        .collect()
+}
+
+/// Chooses σ and c for an exact LS-SVM on raw inputs `x` (columns named by `features`) and
+/// targets `y_dph` (°/h) by `validation` over `grid`. `progress` counts evaluated points
+/// (pass `ProgressBar::hidden()` when nobody watches).
+pub fn tune(
+    features: &[String],
+    x: &[Vec<f64>],
+    y_dph: &[f64],
+    validation: &Validation,
+    grid: &Grid,
+    progress: &ProgressBar,
+) -> Result<Tuned, TuneError> {
+    let ok = |(lo, hi): (f64, f64)| lo > 0.0 && hi >= lo && hi.is_finite();
+    if !(ok(grid.sigma) && ok(grid.c) && grid.sigma_points >= 2 && grid.c_points >= 2) {
+        return Err(TuneError::Setup(format!(
+            "grid needs 0 < lo ≤ hi < ∞ and ≥ 2 points per axis: sigma {:?} × {}, c {:?} × {}",
+            grid.sigma, grid.sigma_points, grid.c, grid.c_points
+        )));
+    }
+    if x.len() != y_dph.len() {
+        return Err(LssvmError::Length {
+            inputs: x.len(),
+            targets: y_dph.len(),
+        }
+        .into());
+    }
+    if let Some(i) = y_dph.iter().position(|v| !v.is_finite()) {
+        return Err(LssvmError::NonFinite {
+            what: "target",
+            index: i,
+            feature: None,
+        }
+        .into());
+    }
+    let scaling = Scaling::fit(features, x)?;
+    let z: Vec<Vec<f64>> = x.iter().map(|r| scaling.apply(r)).collect();
+    let folds = folds(validation, z.len())?;
+    if matches!(validation, Validation::LeaveOneOut) && z.len() < 3 {
+        return Err(TuneError::Setup(format!(
+            "leave-one-out needs at least 3 samples (have {})",
+            z.len()
+        )));
+    }
+    let sigmas = log_space(grid.sigma.0, grid.sigma.1, grid.sigma_points);
+    let cs = log_space(grid.c.0, grid.c.1, grid.c_points);
+    let pairs: Vec<(f64, f64)> = sigmas
+        .iter()
+        .flat_map(|&s| cs.iter().map(move |&c| (s, c)))
+        .collect();
+    progress.set_length((pairs.len() + 9 * grid.refine) as u64);
+    let curve = evaluate(&z, y_dph, &folds, &pairs, progress);
+    let mut at = best(&curve).ok_or(TuneError::NothingTrained)?;
+    // Log steps of the coarse grid; each refinement halves them.
+    let mut ds = (grid.sigma.1 / grid.sigma.0).ln() / (grid.sigma_points - 1) as f64;
+    let mut dc = (grid.c.1 / grid.c.0).ln() / (grid.c_points - 1) as f64;
+    let mut refined = Vec::new();
+    for _ in 0..grid.refine {
+        ds /= 2.0;
+        dc /= 2.0;
+        let local: Vec<(f64, f64)> = [-1.0, 0.0, 1.0]
+            .iter()
+            .flat_map(|i| {
+                [-1.0, 0.0, 1.0]
+                    .iter()
+                    .map(move |j| (at.sigma * (i * ds).exp(), at.c * (j * dc).exp()))
+            })
+            .collect();
+        let pts = evaluate(&z, y_dph, &folds, &local, progress);
+        if let Some(b) = best(&pts) {
+            if b.cv_rms_dph < at.cv_rms_dph {
+                at = b;
+            }
+        }
+        refined.extend(pts);
+    }
+    progress.finish_and_clear();
+    Ok(Tuned {
+        sigma: at.sigma,
+        c: at.c,
+        cv_rms_dph: at.cv_rms_dph,
+        curve,
+        refined,
+        validation: validation.describe(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lssvm::Lssvm;
+
+    /// An `Lssvm` trained on already standardised rows (identity scaling), σ = 0.7, c = 50.
+    fn refit(f: &[String], xt: Vec<Vec<f64>>, yt: &[f64]) -> Lssvm {
+        let m = crate::lssvm::solve::solve(&xt, yt, 0.7, 50.0).unwrap();
+        Lssvm {
+            features: f.to_vec(),
+            scaling: Scaling {
+                mean: vec![0.0; 2],
+                scale: vec![1.0; 2],
+            },
+            support: xt,
+            alpha_dph: m.alpha,
+            bias_dph: m.bias,
+            sigma: 0.7,
+            c: 50.0,
+        }
+    }
+
+    fn names(d: usize) -> Vec<String> {
+        (0..d).map(|i| format!("x{i}")).collect()
+    }
+
+    /// The blocked score equals training on the other folds and predicting the held-out ones
+    /// with the public `Lssvm` (an independent path through `train`/`predict`), and LOO
+    /// equals the mean of 1-point refits.
+    #[test]
+    fn scores_match_explicit_refits() {
+        let (z, y) = crate::lssvm::test_data::scattered(60);
+        let f = names(2);
+        let scaling = Scaling::fit(&f, &z).unwrap();
+        let zs: Vec<Vec<f64>> = z.iter().map(|r| scaling.apply(r)).collect();
+        let v = Validation::Blocked { block: 4, folds: 3 };
+        let fo = folds(&v, zs.len()).unwrap();
+        let got = score(&zs, &y, &fo, 0.7, 50.0);
+        let mut ss = 0.0;
+        for fold in &fo {
+            let keep: Vec<usize> = (0..60).filter(|i| !fold.contains(i)).collect();
+            let xt: Vec<Vec<f64>> = keep.iter().map(|&i| zs[i].clone()).collect();
+            let yt: Vec<f64> = keep.iter().map(|&i| y[i]).collect();
+            let model = refit(&f, xt, &yt);
+            ss += fold
+                .iter()
+                .map(|&i| (model.predict(&zs[i]) - y[i]).powi(2))
+                .sum::<f64>();
+        }
+        let want = (ss / 60.0).sqrt();
+        assert!((got - want).abs() < 1e-12 * want, "{got} vs {want}");
+
+        let loo = score(&zs, &y, &[], 0.7, 50.0);
+        let mut ss = 0.0;
+        for i in 0..60 {
+            let keep: Vec<usize> = (0..60).filter(|&j| j != i).collect();
+            let xt: Vec<Vec<f64>> = keep.iter().map(|&j| zs[j].clone()).collect();
+            let yt: Vec<f64> = keep.iter().map(|&j| y[j]).collect();
+            // Refit on the standardised inputs: the closed form keeps the scaling fixed.
+            let model = refit(&f, xt, &yt);
+            ss += (model.predict(&zs[i]) - y[i]).powi(2);
+        }
+        let want = (ss / 60.0).sqrt();
+        assert!((loo - want).abs() < 1e-8 * want, "{loo} vs {want}");
+    }
+
+    /// On a smooth 1-D target with known noise, the chosen σ is neither the grid's smallest
+    /// nor its largest, the CV RMS is near the noise level, and refinement never worsens it.
+    #[test]
+    fn finds_an_interior_optimum_near_the_noise_level() {
+        let n = 200;
+        let noise = 0.05;
+        let x: Vec<Vec<f64>> = (0..n).map(|i| vec![i as f64 / n as f64 * 6.0]).collect();
+        // Deterministic pseudo-noise, uniform in ±√3·noise (std = noise).
+        let y: Vec<f64> = x
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let u = ((i as f64 * 0.754_877_666).fract() - 0.5) * 2.0 * 3f64.sqrt() * noise;
+                r[0].sin() + u
+            })
+            .collect();
+        for v in [
+            Validation::LeaveOneOut,
+            Validation::Blocked { block: 5, folds: 5 },
+        ] {
+            let t = tune(
+                &names(1),
+                &x,
+                &y,
+                &v,
+                &Grid::default(),
+                &ProgressBar::hidden(),
+            )
+            .unwrap();
+            let coarse_best = best(&t.curve).unwrap();
+            assert!(t.cv_rms_dph <= coarse_best.cv_rms_dph, "{v:?}");
+            assert!(t.sigma > 0.05 && t.sigma < 5.0, "{v:?}: sigma {}", t.sigma);
+            assert!(
+                t.cv_rms_dph > 0.8 * noise && t.cv_rms_dph < 1.5 * noise,
+                "{v:?}: cv {}",
+                t.cv_rms_dph
+            );
+            assert_eq!(t.curve.len(), 63);
+            assert_eq!(t.refined.len(), 27);
+        }
+    }
+
+    #[test]
+    fn group_folds_leave_out_each_group() {
+        let g = vec![0, 0, 1, 1, 2, 2, 2];
+        let f = folds(&Validation::Groups(g), 7).unwrap();
+        assert_eq!(f, vec![vec![0, 1], vec![2, 3], vec![4, 5, 6]]);
+        assert!(matches!(
+            folds(&Validation::Groups(vec![0; 7]), 7),
+            Err(TuneError::Setup(_))
+        ));
+        assert!(matches!(
+            folds(&Validation::Blocked { block: 4, folds: 3 }, 11),
+            Err(TuneError::Setup(_))
+        ));
+    }
+
+    #[test]
+    fn bad_grids_and_data_are_errors() {
+        let x = vec![vec![1.0], vec![2.0], vec![3.0], vec![4.0]];
+        let y = vec![1.0, 2.0, 1.0, 2.0];
+        let hidden = ProgressBar::hidden();
+        let bad = Grid {
+            sigma: (0.0, 1.0),
+            ..Grid::default()
+        };
+        assert!(matches!(
+            tune(&names(1), &x, &y, &Validation::LeaveOneOut, &bad, &hidden),
+            Err(TuneError::Setup(_))
+        ));
+        let nan_y = vec![1.0, f64::NAN, 1.0, 2.0];
+        assert!(matches!(
+            tune(
+                &names(1),
+                &x,
+                &nan_y,
+                &Validation::LeaveOneOut,
+                &Grid::default(),
+                &hidden
+            ),
+            Err(TuneError::Lssvm(LssvmError::NonFinite { index: 1, .. }))
+        ));
+        assert!(matches!(
+            tune(
+                &names(1),
+                &x,
+                &y[..3],
+                &Validation::LeaveOneOut,
+                &Grid::default(),
+                &hidden
+            ),
+            Err(TuneError::Lssvm(LssvmError::Length { .. }))
+        ));
+    }
+}
