@@ -1,5 +1,6 @@
 //! Diagnosing one day of 1 Hz data (the paper's dynamic test, 86 400 samples, with a hidden
-//! hysteresis) against the paper's model must take under 30 s on 2 cores.
+//! hysteresis besides the scenario's own backscatter ripple) against the paper's model must
+//! take under 30 s on 2 cores.
 //! Run: `cargo bench -p host-trainer --bench diagnose`.
 
 use criterion::{criterion_group, criterion_main, Criterion};

@@ -6,8 +6,12 @@
 //! `rlg default-table` writes the table; a test regenerates it and fails when the committed
 //! `firmware/src/model_table.rs` is stale.
 
+use indicatif::ProgressBar;
+
 use crate::cycles::cycle_spans;
+use crate::lssvm::dataset::{self, Dataset, RecordingSelection};
 use crate::lssvm::sparse::Reduction;
+use crate::lssvm::tune::{tune, Grid, Tuned, Validation};
 use crate::model::ModelFile;
 use crate::recording::Recording;
 use crate::simulate::{simulate, Scenario};
@@ -23,12 +27,18 @@ pub const DYNAMIC_SEED: u64 = 2011;
 pub const TRAIN_BLOCK: usize = 100;
 /// dT/dt estimator time constant, s.
 pub const RATE_TAU_S: f64 = 60.0;
-/// Kernel width σ (standardised units) of the default model.
-pub const SIGMA: f64 = 1.0;
-/// Regularisation c of the default model. 10 rather than 1000: the held-out stability is
-/// the same (1.768e-3 vs 1.782e-3 °/h, `rlg sparse-report`) and the reduced model's largest
-/// |a_i| falls from 235 to 8, so the board's f32 sum cancels far less.
-pub const C: f64 = 10.0;
+/// Kernel width σ (standardised units) of the default model: the choice of [`tune_first_cycle`]
+/// (0.6668) to two digits; a test fails when the two drift apart.
+pub const SIGMA: f64 = 0.67;
+/// Regularisation c of the default model: the choice of [`tune_first_cycle`] (56.2) to two
+/// digits (see [`SIGMA`]).
+pub const C: f64 = 56.0;
+/// Cross-validation of σ and c inside the first cycle: 5 folds of interleaved blocks of 10
+/// consecutive 100 s means (≈ 17 min, longer than the slow noise neighbouring means share).
+pub const CV: Validation = Validation::Blocked {
+    block: 10,
+    folds: 5,
+};
 /// Support vectors in the board's table (fixed-size LS-SVM, Nyström with a Rényi-entropy
 /// active set): the board budget is sized for 64.
 pub const SUPPORT_VECTORS: usize = 64;
@@ -40,6 +50,9 @@ pub const DEFAULT_TABLE_COMMAND: &str = "rlg default-table --out firmware/src/mo
 pub struct DynamicRun {
     /// The simulated recording (what a chamber run would log).
     pub recording: Recording,
+    /// The simulator's noise-free bias at each sample, °/h (ground truth for scoring only;
+    /// no model sees it).
+    pub true_bias_dph: Vec<f64>,
     /// Cycle spans found from the recorded temperature.
     pub cycles: Vec<(f64, f64)>,
 }
@@ -53,15 +66,47 @@ impl DynamicRun {
 
 /// Simulates the shipped dynamic scenario with the reference seed.
 pub fn dynamic_run() -> anyhow::Result<DynamicRun> {
+    dynamic_run_seeded(DYNAMIC_SEED)
+}
+
+/// Simulates the shipped dynamic scenario with `seed`.
+pub fn dynamic_run_seeded(seed: u64) -> anyhow::Result<DynamicRun> {
     let scenario = Scenario::from_toml_str(DYNAMIC_SCENARIO_TOML, DYNAMIC_SCENARIO_PATH)?;
-    let recording = simulate(&scenario, DYNAMIC_SEED)?.recording;
+    let sim = simulate(&scenario, seed)?;
+    let (recording, true_bias_dph) = (sim.recording, sim.truth.bias_dph);
     let cycles = cycle_spans(&recording.time_s, &recording.temp_c);
     anyhow::ensure!(
         cycles.len() >= 2,
         "the reference run has {} temperature cycle(s); need one to train and one to test",
         cycles.len()
     );
-    Ok(DynamicRun { recording, cycles })
+    Ok(DynamicRun {
+        recording,
+        true_bias_dph,
+        cycles,
+    })
+}
+
+/// The first cycle's training set: [T, dT/dt] from the board's estimator → output, means of
+/// `block` samples.
+pub fn first_cycle_data(run: &DynamicRun, block: usize) -> anyhow::Result<Dataset> {
+    let sel = RecordingSelection {
+        from_s: None,
+        to_s: Some(run.train_end_s()),
+        block,
+        rate_tau_s: RATE_TAU_S,
+    };
+    Ok(dataset::from_recording(&run.recording, &sel)?)
+}
+
+/// σ and c of an exact LS-SVM by [`CV`] on the first cycle's 100 s means over `grid`.
+pub fn tune_first_cycle(
+    run: &DynamicRun,
+    grid: &Grid,
+    progress: &ProgressBar,
+) -> anyhow::Result<Tuned> {
+    let d = first_cycle_data(run, TRAIN_BLOCK)?;
+    Ok(tune(&d.features, &d.x, &d.y_dph, &CV, grid, progress)?)
 }
 
 /// The default model: [`dynamic_run`], then a fixed-size LS-SVM of [`SUPPORT_VECTORS`]
@@ -80,4 +125,19 @@ pub fn default_model() -> anyhow::Result<(DynamicRun, ModelFile)> {
 pub fn default_table_source() -> anyhow::Result<String> {
     let (_, model) = default_model()?;
     Ok(crate::export::table_source(&model, DEFAULT_TABLE_COMMAND)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// [`SIGMA`] and [`C`] are what cross-validation chooses on the reference run (to the two
+    /// digits they are written with).
+    #[test]
+    fn default_hyper_parameters_are_the_cross_validated_ones() {
+        let run = dynamic_run().unwrap();
+        let t = tune_first_cycle(&run, &Grid::default(), &ProgressBar::hidden()).unwrap();
+        assert!((t.sigma / SIGMA - 1.0).abs() < 0.01, "sigma {}", t.sigma);
+        assert!((t.c / C - 1.0).abs() < 0.01, "c {}", t.c);
+    }
 }

@@ -5,7 +5,8 @@ use crate::physics::Term;
 use crate::simulate::{simulate, Scenario};
 
 /// The dynamic scenario shortened to two 1 °C/min cycles of 10 … 65 °C with 1.5 h holds
-/// (≈ 9.7 h), its 5 s sensor lag removed, with `extra` terms added.
+/// (≈ 9.7 h), its 5 s sensor lag and its backscatter ripple removed (so that the paper's model
+/// is the whole truth), with `extra` terms added.
 fn scenario(extra: Vec<Term>, noise_scale: f64) -> Scenario {
     let text = include_str!("../../scenarios/yu2011-dynamic.toml");
     let mut s: Scenario = toml::from_str(text).expect("scenario parses");
@@ -20,7 +21,8 @@ fn scenario(extra: Vec<Term>, noise_scale: f64) -> Scenario {
     .and_then(|t| t.get("p").cloned())
     .and_then(|v| v.try_into().ok())
     .expect("profile parses");
-    s.terms.retain(|t| !matches!(t, Term::SensorLag { .. }));
+    s.terms
+        .retain(|t| !matches!(t, Term::SensorLag { .. } | Term::Backscatter { .. }));
     s.terms.extend(extra);
     s.noise.arw_dph_rt_h *= noise_scale;
     s.noise.bias_instability_dph *= noise_scale;

@@ -73,7 +73,8 @@ fn eq11(t: f64, r: f64) -> f64 {
 }
 
 /// Raw 100 s stability ≈ 0.0102 °/h; after Eq. (11) compensation from the recorded sensor
-/// temperature ≈ 0.0016 °/h (the paper's figures).
+/// temperature ≈ 0.0016 °/h (the paper's figures); the noise alone (output − true bias) below
+/// the paper's LS-SVM figure of 0.0011 °/h, so that figure is reachable at all.
 #[test]
 fn dynamic_scenario_reproduces_paper_stabilities() {
     let s = load("yu2011-dynamic.toml");
@@ -93,6 +94,13 @@ fn dynamic_scenario_reproduces_paper_stabilities() {
         .collect();
     let c = bias_stability_dph(&comp, 100).unwrap();
     assert!((c / 0.0016 - 1.0).abs() < 0.30, "compensated {c}");
-    eprintln!("100 s stability: raw {raw:.5} °/h, Eq. (11)-compensated {c:.5} °/h");
+    let noise: Vec<f64> = (0..n)
+        .map(|i| r.rate_dph[i] - sim.truth.bias_dph[i])
+        .collect();
+    let floor = bias_stability_dph(&noise, 100).unwrap();
+    assert!(floor < 0.0011 && floor > 0.0008, "noise floor {floor}");
+    eprintln!(
+        "100 s stability: raw {raw:.5} °/h, Eq. (11)-compensated {c:.5} °/h, noise {floor:.5} °/h"
+    );
     assert!(sim.truth.scenario.profile.len() == 1 && r.time_s[n - 1] > 3.0 * 7.8 * 3600.0);
 }
