@@ -20,6 +20,7 @@ pub mod physics;
 pub mod pipeline;
 pub mod plot;
 pub mod recording;
+pub mod repro;
 pub mod simulate;
 pub mod sparse_eval;
 pub mod table1;

@@ -2,6 +2,27 @@
 use clap::Parser;
 
 fn main() -> anyhow::Result<()> {
+    quiet_on_closed_stdout();
     let line = host_trainer::cli::command_line(std::env::args());
     host_trainer::cli::Cli::parse().run(&line)
+}
+
+/// `rlg report | head` closes stdout early; Rust ignores SIGPIPE, so the next `println!`
+/// panics. Exit quietly with the shell's status for a SIGPIPE death (128 + 13) instead, as
+/// a C tool would; every other panic goes to the default hook. (Restoring the signal's
+/// default action would need `unsafe`, which the workspace forbids.)
+fn quiet_on_closed_stdout() {
+    let default = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let msg = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if msg.starts_with("failed printing to stdout") && msg.contains("Broken pipe") {
+            std::process::exit(141);
+        }
+        default(info);
+    }));
 }

@@ -83,6 +83,10 @@ pub struct Figure {
     pub height: u32,
     /// Series in drawing order.
     pub series: Vec<Series>,
+    /// Logarithmic x axis (non-positive x values are not drawn).
+    pub log_x: bool,
+    /// Logarithmic left y axis (non-positive y values are not drawn).
+    pub log_y: bool,
 }
 
 impl Figure {
@@ -96,6 +100,8 @@ impl Figure {
             width: 1000,
             height: 600,
             series: Vec::new(),
+            log_x: false,
+            log_y: false,
         }
     }
 }
@@ -122,6 +128,13 @@ pub enum PlotError {
     /// The backend failed (e.g. the file could not be written).
     #[error("drawing failed: {0}")]
     Draw(String),
+}
+
+impl From<std::io::Error> for PlotError {
+    /// Writing or renaming the PNG failed.
+    fn from(e: std::io::Error) -> Self {
+        PlotError::Draw(e.to_string())
+    }
 }
 
 fn draw_err<E: std::fmt::Display>(e: E) -> PlotError {
@@ -158,13 +171,18 @@ fn range_of<'a>(
     Ok(lo - pad..hi + pad)
 }
 
-const PALETTE: [RGBColor; 6] = [
+/// Ten distinguishable colours (matplotlib's "tab10" order, black in place of grey).
+const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
     RGBColor(255, 127, 14),
     RGBColor(148, 103, 189),
     RGBColor(0, 0, 0),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
 ];
 
 fn finite_points(s: &Series) -> Vec<(f64, f64)> {
@@ -184,8 +202,33 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, fig: &Figure) -> Resul
             return Err(PlotError::NoSecondAxis(s.label.clone()));
         }
     }
-    let on = |a: Axis| fig.series.iter().filter(move |s| s.axis == a);
-    let xr = range_of(fig.series.iter().flat_map(|s| &s.x), "x")?;
+    // Log axes: the data are drawn as log10 values and the tick labels show 10^v, which keeps
+    // one cartesian chart type for every figure.
+    let logged: Vec<Series>;
+    let series: &[Series] = if fig.log_x || fig.log_y {
+        let lg = |v: f64, on: bool| match (on, v > 0.0) {
+            (false, _) => v,
+            (true, true) => v.log10(),
+            (true, false) => f64::NAN,
+        };
+        logged = fig
+            .series
+            .iter()
+            .map(|s| Series {
+                x: s.x.iter().map(|&v| lg(v, fig.log_x)).collect(),
+                y: s.y
+                    .iter()
+                    .map(|&v| lg(v, fig.log_y && s.axis == Axis::Left))
+                    .collect(),
+                ..s.clone()
+            })
+            .collect();
+        &logged
+    } else {
+        &fig.series
+    };
+    let on = |a: Axis| series.iter().filter(move |s| s.axis == a);
+    let xr = range_of(series.iter().flat_map(|s| &s.x), "x")?;
     let yr = range_of(on(Axis::Left).flat_map(|s| &s.y), "left y")?;
     let y2r = match fig.y2_label {
         Some(_) => range_of(on(Axis::Right).flat_map(|s| &s.y), "right y")?,
@@ -202,9 +245,23 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, fig: &Figure) -> Resul
         .build_cartesian_2d(xr.clone(), yr)
         .map_err(draw_err)?
         .set_secondary_coord(xr, y2r);
-    chart
-        .configure_mesh()
-        .x_desc(&fig.x_label)
+    // Tick labels on a log axis: the value 10^v, rounded for reading.
+    let tick = |v: &f64| {
+        let p = 10f64.powf(*v);
+        if (1e-3..1e5).contains(&p) {
+            format!("{}", (p * 1e3).round() / 1e3)
+        } else {
+            format!("{p:.0e}")
+        }
+    };
+    let mut mesh = chart.configure_mesh();
+    if fig.log_x {
+        mesh.x_label_formatter(&tick);
+    }
+    if fig.log_y {
+        mesh.y_label_formatter(&tick);
+    }
+    mesh.x_desc(&fig.x_label)
         .y_desc(&fig.y_label)
         .label_style((FONT, 14))
         .axis_desc_style((FONT, 16))
@@ -219,7 +276,7 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, fig: &Figure) -> Resul
             .draw()
             .map_err(draw_err)?;
     }
-    for (i, s) in fig.series.iter().enumerate() {
+    for (i, s) in series.iter().enumerate() {
         let color = PALETTE[i % PALETTE.len()];
         let pts = finite_points(s);
         let line = matches!(s.style, Style::Line | Style::LinePoints);
@@ -273,14 +330,17 @@ fn check_size(fig: &Figure) -> Result<(), PlotError> {
     }
 }
 
-/// Draws `fig` into a PNG file at `path` (`fig.width` × `fig.height` px).
+/// Draws `fig` into a PNG file at `path` (`fig.width` × `fig.height` px), atomically
+/// ([`crate::atomic::write_with`]).
 pub fn render_png(fig: &Figure, path: &Path) -> Result<(), PlotError> {
     check_size(fig)?;
     register_font()?;
-    draw(
-        BitMapBackend::new(path, (fig.width, fig.height)).into_drawing_area(),
-        fig,
-    )
+    crate::atomic::write_with(path, |tmp| {
+        draw(
+            BitMapBackend::new(tmp, (fig.width, fig.height)).into_drawing_area(),
+            fig,
+        )
+    })
 }
 
 /// Draws `fig` into an RGB8 buffer (row-major, 3 bytes per pixel); for tests and callers

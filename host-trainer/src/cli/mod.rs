@@ -6,6 +6,7 @@ pub mod default_table;
 pub mod diagnose;
 pub mod export;
 pub mod fleet;
+pub mod report;
 pub mod simulate;
 pub mod static_repro;
 pub mod train;
@@ -46,6 +47,9 @@ pub enum Command {
     BenchmarkDiagnose(benchmark_diagnose::BenchmarkDiagnoseArgs),
     /// Reproduce the static least-squares quadratic of Table 1 / Fig. 2(a).
     StaticRepro(static_repro::Args),
+    /// Reproduce every result of the paper, print it beside the published values and write
+    /// the report folder (Markdown summary and PNG figures).
+    Report(report::ReportArgs),
 }
 
 impl Cli {
@@ -63,6 +67,7 @@ impl Cli {
             Command::Diagnose(a) => diagnose::run(&a),
             Command::BenchmarkDiagnose(a) => benchmark_diagnose::run(&a),
             Command::StaticRepro(a) => static_repro::run(&a),
+            Command::Report(a) => report::run(&a),
         }
     }
 }

@@ -1,12 +1,38 @@
 //! The README's main job: `cargo run --release -p tests --bin main-job`.
 //!
-//! Trains the board's default model on the shipped data, exports its table, runs the
-//! Cortex-M4F image in QEMU on the held-out cycles and prints the agreement with the host.
+//! Reproduces the paper (static and dynamic tests) and prints the published figures beside the
+//! measured ones, writes the report folder, then trains the board's default model on the
+//! shipped data, exports its table, runs the Cortex-M4F image in QEMU on the held-out cycles
+//! and prints the agreement with the host.
 
 use std::path::PathBuf;
 
+use host_trainer::cli::report::progress;
+use host_trainer::metrics::compare::markdown_table;
+use host_trainer::repro::{dynamic, report, static_test};
+
 fn main() -> anyhow::Result<()> {
     let out = PathBuf::from(std::env::args().nth(1).unwrap_or_else(|| "out".to_string()));
+
+    let opts = dynamic::DynamicOptions::default();
+    let st = static_test::reproduce(
+        &host_trainer::table1::bundled()?,
+        &opts.grid,
+        &progress("static LS-SVM: LOO grid"),
+    )?;
+    let dy = dynamic::reproduce(&opts, &progress("dynamic LS-SVM: blocked CV"))?;
+    println!("== Reproduction of Yu et al. 2011 (paper value beside measured value)");
+    print!("{}", markdown_table(&report::headline(&st, &dy)));
+    println!();
+    print!("{}", dy.to_markdown());
+    let dir = out.join("report");
+    let files = report::write(&dir, &st, &dy)?;
+    println!(
+        "  report: {} ({} files)\n",
+        dir.join("README.md").display(),
+        files.len()
+    );
+
     let r = tests::e2e::run(&out)?;
     println!(
         "== Dynamic test (yu2011-dynamic, seed {}), LS-SVM on [T, dT/dt]",
