@@ -10,7 +10,7 @@ pub mod stepwise;
 
 pub use ols::{ols, Ols, OlsError};
 pub use poly::{PolyError, PolyFit};
-pub use static_quad::{static_quadratic, StaticPoint, StaticRepro};
+pub use static_quad::{static_polynomial, static_quadratic, StaticPoint, StaticRepro};
 pub use stepwise::{
     fit_terms, paper_candidates, stepwise, Candidate, LinearFit, Step, StepAction, StepwiseError,
     StepwiseFit, StepwiseOptions, PAPER_TERMS,

@@ -1,6 +1,6 @@
 //! `rlg static-repro`: the paper's static model (Table 1, Fig. 2(a)) reproduced.
 
-use crate::baselines::static_quadratic;
+use crate::baselines::static_polynomial;
 use crate::metrics::compare::{markdown_table, FigureOfMerit};
 use crate::{plot, table1};
 use anyhow::Context;
@@ -12,6 +12,9 @@ pub struct Args {
     /// Table 1 CSV (default: the copy bundled with the crate).
     #[arg(long)]
     pub table: Option<PathBuf>,
+    /// Degree of the least-squares polynomial (2: the paper's quadratic).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u64).range(1..=6))]
+    pub degree: u64,
     /// Write a Fig. 2(a)-style PNG here.
     #[arg(long)]
     pub plot: Option<PathBuf>,
@@ -23,20 +26,27 @@ pub fn run(args: &Args) -> anyhow::Result<()> {
         Some(p) => table1::read_table1(p)?,
         None => table1::bundled().context("bundled Table 1")?,
     };
-    let r = static_quadratic(&rows).context("fitting the quadratic")?;
+    let degree = args.degree as usize;
+    let r = static_polynomial(&rows, degree).context("fitting the polynomial")?;
     let (c, se) = (r.fit.coefficients(), r.fit.std_errors());
-    println!("Least-squares quadratic of output (°/h) on body temperature T (°C):");
-    println!("  rate_dph = a0 + a1·T + a2·T²");
-    for (k, unit) in ["°/h", "°/h/°C", "°/h/°C²"].iter().enumerate() {
-        println!("  a{k} = {:+.6e} ± {:.2e} {unit}", c[k], se[k]);
+    println!(
+        "Least-squares polynomial of degree {degree}, output (°/h) on body temperature T (°C):"
+    );
+    println!("  rate_dph = Σ a_k·T^k");
+    for k in 0..=degree {
+        println!("  a{k} = {:+.6e} ± {:.2e} °/h/°C^{k}", c[k], se[k]);
     }
     println!(
-        "  residual σ = {:.2e} °/h (n − 3 = {} dof)\n",
+        "  residual σ = {:.2e} °/h (n − {} = {} dof)\n",
         r.fit.sigma(),
-        rows.len() - 3
+        degree + 1,
+        rows.len().saturating_sub(degree + 1)
     );
+    if degree != 2 {
+        println!("(The paper's error column belongs to its quadratic, shown for comparison.)\n");
+    }
     println!("Errors are prediction − measurement. TRAINING: fit to all points (what the paper");
-    println!("quotes). LOO: the point's error when the quadratic is refitted without it.\n");
+    println!("quotes). LOO: the point's error when the polynomial is refitted without it.\n");
     print!("{}", r.to_markdown());
     let paper_max = rows
         .iter()

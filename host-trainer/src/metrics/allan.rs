@@ -184,6 +184,20 @@ mod tests {
         assert!((rrw / k - 1.0).abs() < 0.1, "{rrw}");
     }
 
+    /// Four samples by hand: rates 1, 3, 2, 6 at 1 s. At m = 1 the Allan variance is half the
+    /// mean squared first difference, (2² + 1² + 4²)/(2·3) = 3.5; K = 4 clusters give the
+    /// 1σ error √3.5/√(2·3). As the only point in range it is the floor, so the bias
+    /// instability is √3.5 / 0.664282.
+    #[test]
+    fn four_samples_by_hand() {
+        let p = overlapping_adev(&[1.0, 3.0, 2.0, 6.0], 1.0, &[1]);
+        assert_eq!(p.len(), 1);
+        assert!((p[0].adev - 3.5f64.sqrt()).abs() < 1e-15);
+        assert!((p[0].err - 3.5f64.sqrt() / 6f64.sqrt()).abs() < 1e-15);
+        let bi = bias_instability_dph(&p, (0.5, 2.0)).unwrap();
+        assert!((bi - 3.5f64.sqrt() / 0.664_282_307_6).abs() < 1e-12);
+    }
+
     #[test]
     fn degenerate_inputs_give_no_points() {
         assert!(overlapping_adev(&[], 1.0, &[1]).is_empty());
