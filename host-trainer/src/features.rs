@@ -1,14 +1,19 @@
 //! Training features computed exactly as the board computes them.
 //!
 //! The temperature is rounded to f32 and fed, sample by sample, through
-//! `compensator_core::RateEstimator` built from `RateFilter::from_tau_s` — the very code and
-//! gains the board runs — so the dT/dt feature the model is trained on is bit-identical to the
-//! one it sees in flight. The f32 values are returned widened to f64.
+//! `compensator_core::RateEstimator` built from `RateFilter::from_tau_s` and the recursive
+//! features of `compensator_core::features::FeatureBank` — the very code and gains the board
+//! runs — so every feature the model is trained on (T, dT/dt, lead-corrected T, lagged
+//! gradient, play operator, time since power-on) is bit-identical to the one it sees in
+//! flight. The f32 values are returned widened to f64.
 //!
 //! Gaps in the sample times that are a whole number of periods are bridged as the board does
-//! when it rejects samples: `RateEstimator::skip` per missing period, and a restart (a new
-//! warm-up) after `SensorLimits::DEFAULT.max_skipped` consecutive missing periods.
+//! when it rejects samples (`Compensator::update` with a temperature fault, once per missing
+//! period): the estimator and the features skip the period, and from
+//! `SensorLimits::DEFAULT.max_skipped` consecutive missing periods on the estimator restarts
+//! (a new warm-up) and the lag and play states clear.
 
+use compensator_core::features::FeatureBank;
 use compensator_core::{Feature, RateEstimator, RateFilter, SensorLimits};
 
 /// Why features could not be computed.
@@ -51,6 +56,15 @@ pub enum FeatureError {
         /// The expected period, s.
         dt_s: f64,
     },
+    /// Two samples are further apart than [`MAX_GAP_PERIODS`] periods (a clock error rather
+    /// than a pause: bridging it would replay every missing period).
+    #[error("samples {index} and {} are {periods} periods apart (more than {MAX_GAP_PERIODS}); split the recording at the gap", index + 1)]
+    Gap {
+        /// 0-based index of the earlier sample.
+        index: usize,
+        /// Periods between the two samples.
+        periods: f64,
+    },
     /// Block averaging asked for blocks of 0 samples or more samples than exist.
     #[error("cannot average {len} samples in blocks of {block}")]
     Block {
@@ -60,6 +74,9 @@ pub enum FeatureError {
         block: usize,
     },
 }
+
+/// The longest gap bridged between two samples, periods (≈ 116 days at 1 Hz).
+pub const MAX_GAP_PERIODS: f64 = 1e7;
 
 /// The dT/dt filter the trainer and the board share, for `rate_tau_s` at period `dt_s`.
 pub fn rate_filter(rate_tau_s: f64, dt_s: f64) -> Result<RateFilter, FeatureError> {
@@ -90,9 +107,10 @@ pub struct FeatureSeries {
 }
 
 impl FeatureSeries {
-    /// Feature names (`Feature::name`), in column order.
+    /// Feature names with their parameters (`Feature`'s `Display`, e.g.
+    /// `temp_lead_c(tau_s=120)`), in column order.
     pub fn names(&self) -> Vec<String> {
-        self.features.iter().map(|f| f.name().to_string()).collect()
+        self.features.iter().map(|f| f.to_string()).collect()
     }
 }
 
@@ -128,6 +146,12 @@ pub fn compute(
     }
     let max_skipped = SensorLimits::DEFAULT.max_skipped;
     let mut est = RateEstimator::new(filter);
+    // One bank per feature: each feature's state is its own, so a one-feature bank runs the
+    // board's arithmetic for that column (the board runs them side by side in one bank).
+    let mut banks: Vec<FeatureBank<1>> = features
+        .iter()
+        .map(|f| FeatureBank::new([*f], filter.dt_s))
+        .collect();
     let mut rows = Vec::with_capacity(temp_c.len());
     let mut warming_up = Vec::with_capacity(temp_c.len());
     for (k, &t) in temp_c.iter().enumerate() {
@@ -141,26 +165,34 @@ pub fn compute(
                     dt_s,
                 });
             }
+            if periods > MAX_GAP_PERIODS {
+                return Err(FeatureError::Gap {
+                    index: k - 1,
+                    periods,
+                });
+            }
+            // The board's path for a period without an accepted temperature.
             let missing = periods as u64 - 1;
-            if missing >= u64::from(max_skipped) {
-                est.reset();
-            } else {
-                for _ in 0..missing {
-                    est.skip();
+            for skipped in 1..=missing {
+                if skipped >= u64::from(max_skipped) {
+                    est.reset();
+                    let e = est.estimate();
+                    for b in &mut banks {
+                        b.skip(&e);
+                        b.reset();
+                    }
+                } else {
+                    let e = est.skip();
+                    banks.iter_mut().for_each(|b| b.skip(&e));
                 }
             }
         }
         let t32 = t as f32;
         let e = est.update(t32);
         rows.push(
-            features
-                .iter()
-                .map(|f| match f {
-                    Feature::TempC => f64::from(t32),
-                    Feature::TempRateCPerS => f64::from(e.rate_c_per_s),
-                    // `Feature` is non-exhaustive; a new feature needs its pipeline here.
-                    _ => f64::NAN,
-                })
+            banks
+                .iter_mut()
+                .map(|b| f64::from(b.update(t32, &e)[0]))
                 .collect(),
         );
         warming_up.push(e.warming_up);
@@ -259,6 +291,70 @@ mod tests {
             1.0
         )
         .is_err());
+    }
+
+    /// Every recursive feature, through gaps short and long, equals a joint five-feature
+    /// `FeatureBank` (as the board holds it) driven by `Compensator::update`'s rule for a
+    /// period without an accepted temperature, bit for bit. (The board's outputs themselves are
+    /// compared bit for bit in QEMU by the tests crate.)
+    #[test]
+    fn recursive_features_equal_a_joint_bank_through_gaps() {
+        const F: [Feature; 5] = [
+            Feature::TempC,
+            Feature::TempLeadC { tau_s: 120 },
+            Feature::TempGradLagCPerS { tau_s: 300 },
+            Feature::TempPlayC { width_mc: 2000 },
+            Feature::TimeOnS,
+        ];
+        // A triangle wave with gaps of 3 and of 200 missing periods (the latter restarts).
+        let mut time = Vec::new();
+        let mut t = 0.0;
+        for k in 0..3000 {
+            time.push(t);
+            t += match k {
+                1000 => 4.0,
+                2000 => 201.0,
+                _ => 1.0,
+            };
+        }
+        let temp: Vec<f64> = time
+            .iter()
+            .map(|t| 20.0 + 15.0 * (2.0 * ((t / 1600.0f64).fract() - 0.5)).abs())
+            .collect();
+        let s = compute(&F, &temp, &time, 60.0, 1.0).unwrap();
+
+        let filter = RateFilter::from_tau_s(60.0, 1.0);
+        let mut rate = RateEstimator::new(filter);
+        let mut bank = FeatureBank::new(F, filter.dt_s);
+        let max_skipped = SensorLimits::DEFAULT.max_skipped;
+        for (k, &tc) in temp.iter().enumerate() {
+            if k > 0 {
+                let mut skipped = 0u32;
+                for _ in 1..(time[k] - time[k - 1]) as usize {
+                    skipped += 1;
+                    if skipped >= max_skipped {
+                        rate.reset();
+                        bank.skip(&rate.estimate());
+                        bank.reset();
+                    } else {
+                        let e = rate.skip();
+                        bank.skip(&e);
+                    }
+                }
+            }
+            let e = rate.update(tc as f32);
+            let want = bank.update(tc as f32, &e);
+            for (d, v) in want.iter().enumerate() {
+                assert_eq!(
+                    s.rows[k][d].to_bits(),
+                    f64::from(*v).to_bits(),
+                    "sample {k}, feature {d}"
+                );
+            }
+        }
+        // The long gap restarted the estimator: the lag and play states cleared, time ran on.
+        assert_eq!(s.rows[2001][4], 2000.0 + 1.0 + 3.0 + 200.0);
+        assert!(s.warming_up[2001] && !s.warming_up[1999]);
     }
 
     #[test]

@@ -130,17 +130,20 @@ pub struct ModelFile {
     pub provenance: Provenance,
 }
 
-/// The reference condition for `features`: T = [`REFERENCE_TEMP_C`], dT/dt = 0, each clamped
-/// into `[lo, hi]`.
+/// The reference condition for `features`: temperatures (T, lead-corrected T, play state) at
+/// [`REFERENCE_TEMP_C`], rates (dT/dt, lagged gradient) 0, time since power-on at its largest
+/// trained value (warmed up), each clamped into `[lo, hi]`.
 pub fn reference_input(features: &[String], lo: &[f64], hi: &[f64]) -> Vec<f64> {
     features
         .iter()
         .zip(lo.iter().zip(hi))
         .map(|(f, (l, h))| {
-            let v = if f == Feature::TempC.name() {
-                REFERENCE_TEMP_C
-            } else {
-                0.0
+            let v = match Feature::from_name(f) {
+                Some(Feature::TempC | Feature::TempLeadC { .. } | Feature::TempPlayC { .. }) => {
+                    REFERENCE_TEMP_C
+                }
+                Some(Feature::TimeOnS) => *h,
+                _ => 0.0,
             };
             v.clamp(*l, *h)
         })

@@ -119,13 +119,23 @@ pub struct RecordingSelection {
     pub rate_tau_s: f64,
 }
 
-/// Builds the two-feature training set [T, dT/dt] → `rate_dph` from a recording.
+/// Builds the two-feature training set [T, dT/dt] → `rate_dph` from a recording
+/// ([`from_recording_with`] with the paper's inputs).
+pub fn from_recording(rec: &Recording, sel: &RecordingSelection) -> Result<Dataset, DatasetError> {
+    from_recording_with(rec, sel, &[Feature::TempC, Feature::TempRateCPerS])
+}
+
+/// Builds the training set `features` → `rate_dph` from a recording.
 ///
 /// The features are computed over the whole recording (so the estimator's state at `from_s`
 /// is what the board's would be), then samples flagged as warming up or outside
 /// `[from_s, to_s]` are dropped, then blocks are averaged. The sample period is the median
 /// step of `time_s`.
-pub fn from_recording(rec: &Recording, sel: &RecordingSelection) -> Result<Dataset, DatasetError> {
+pub fn from_recording_with(
+    rec: &Recording,
+    sel: &RecordingSelection,
+    features: &[Feature],
+) -> Result<Dataset, DatasetError> {
     let n = rec.len();
     if n < 2 || rec.temp_c.len() != n || rec.rate_dph.len() != n {
         return Err(DatasetError::Empty(format!(
@@ -137,8 +147,7 @@ pub fn from_recording(rec: &Recording, sel: &RecordingSelection) -> Result<Datas
     let mut steps: Vec<f64> = rec.time_s.windows(2).map(|w| w[1] - w[0]).collect();
     steps.sort_by(f64::total_cmp);
     let dt_s = steps[steps.len() / 2];
-    let feats = [Feature::TempC, Feature::TempRateCPerS];
-    let series = features::compute(&feats, &rec.temp_c, &rec.time_s, sel.rate_tau_s, dt_s)?;
+    let series = features::compute(features, &rec.temp_c, &rec.time_s, sel.rate_tau_s, dt_s)?;
     let (lo, hi) = (
         sel.from_s.unwrap_or(f64::NEG_INFINITY),
         sel.to_s.unwrap_or(f64::INFINITY),
