@@ -274,6 +274,7 @@ mod tests {
             features: [Feature::TempC, Feature::TempRateCPerS],
             input_mean: [40.0, 0.0],
             input_inv_scale: [0.05, 50.0],
+            linear_dph: [0.0, 0.0],
             input_lo: [10.0, -0.02],
             input_hi: [65.0, 0.02],
             gamma: 0.5,

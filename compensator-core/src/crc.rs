@@ -34,6 +34,7 @@ pub const fn feature_code(f: Feature) -> u32 {
         Feature::TempGradLagCPerS { .. } => 3,
         Feature::TempPlayC { .. } => 4,
         Feature::TimeOnS => 5,
+        Feature::WarmupDecay { .. } => 6,
     }
 }
 
@@ -76,6 +77,7 @@ impl<const D: usize> ModelRef<'_, D> {
         }
         put_f32s(&mut d, &s.input_mean);
         put_f32s(&mut d, &s.input_inv_scale);
+        put_f32s(&mut d, &s.linear_dph);
         put_f32s(&mut d, &s.input_lo);
         put_f32s(&mut d, &s.input_hi);
         put_f32s(&mut d, &[s.gamma, s.bias_dph, s.reference_dph]);
@@ -125,6 +127,7 @@ mod tests {
                 features: [Feature::TempRateCPerS],
                 input_mean: [1.5],
                 input_inv_scale: [2.0],
+                linear_dph: [0.125],
                 input_lo: [-1.0],
                 input_hi: [3.0],
                 gamma: 0.5,
@@ -142,12 +145,13 @@ mod tests {
             crc32: 0,
         };
         let mut s: Vec<u8> = Vec::new();
-        let words: [u32; 18] = [
+        let words: [u32; 19] = [
             2,
             1,
             1,
             1.5f32.to_bits(),
             2.0f32.to_bits(),
+            0.125f32.to_bits(),
             (-1.0f32).to_bits(),
             3.0f32.to_bits(),
             0.5f32.to_bits(),

@@ -19,14 +19,28 @@ impl<const D: usize> ModelRef<'_, D> {
         core::array::from_fn(|d| (x[d] - s.input_mean[d]) * s.input_inv_scale[d])
     }
 
-    /// Eq. (10) at a raw (unstandardised) feature vector, °/h.
+    /// The model at a raw (unstandardised) feature vector, °/h: Eq. (10) plus the linear
+    /// terms Σ_d linear_d·(x_d − mean_d) ([`crate::ModelSpec::linear_dph`]; zero for the
+    /// paper's model).
     ///
     /// No clamping: the caller decides what to do outside the trained range
     /// (see [`crate::Compensator`]). Finite for finite input and a validated table, since the
     /// kernel lies in (0, 1].
     #[inline]
     pub fn predict_dph(&self, x: &[f32; D]) -> f32 {
-        self.predict_standardised_dph(&self.standardise(x))
+        self.predict_standardised_dph(&self.standardise(x)) + self.linear_dph(x)
+    }
+
+    /// Σ_d linear_d·(x_d − mean_d), °/h, summed in feature order (0 for a table without
+    /// linear terms).
+    #[inline]
+    pub fn linear_dph(&self, x: &[f32; D]) -> f32 {
+        let s = self.spec;
+        let mut sum = 0.0f32;
+        for ((b, v), m) in s.linear_dph.iter().zip(x).zip(&s.input_mean) {
+            sum += b * (v - m);
+        }
+        sum
     }
 
     /// Eq. (10) at an already standardised feature vector, °/h: the board's evaluation, with
@@ -94,6 +108,7 @@ mod tests {
             features: [Feature::TempC],
             input_mean: [10.0],
             input_inv_scale: [0.5],
+            linear_dph: [0.0],
             input_lo: [0.0],
             input_hi: [20.0],
             gamma: 0.5,

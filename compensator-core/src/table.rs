@@ -36,6 +36,13 @@ pub enum Feature {
     },
     /// Time since power-on (first sample), s (warm-up term).
     TimeOnS,
+    /// Warm-up transient state e^(−t_on/τ), dimensionless, from 1 at power-on to 0
+    /// (warm-up term with the diagnosed time constant; unlike [`Feature::TimeOnS`] it stays
+    /// in its trained range however long the board runs).
+    WarmupDecay {
+        /// Time constant τ, s.
+        tau_s: u32,
+    },
 }
 
 impl Feature {
@@ -49,15 +56,16 @@ impl Feature {
             Feature::TempGradLagCPerS { .. } => "temp_grad_lag_c_per_s",
             Feature::TempPlayC { .. } => "temp_play_c",
             Feature::TimeOnS => "time_on_s",
+            Feature::WarmupDecay { .. } => "warmup_decay",
         }
     }
 
     /// The parameter's name and value, for parameterised features.
     pub const fn parameter(self) -> Option<(&'static str, u32)> {
         match self {
-            Feature::TempLeadC { tau_s } | Feature::TempGradLagCPerS { tau_s } => {
-                Some(("tau_s", tau_s))
-            }
+            Feature::TempLeadC { tau_s }
+            | Feature::TempGradLagCPerS { tau_s }
+            | Feature::WarmupDecay { tau_s } => Some(("tau_s", tau_s)),
             Feature::TempPlayC { width_mc } => Some(("width_mc", width_mc)),
             Feature::TempC | Feature::TempRateCPerS | Feature::TimeOnS => None,
         }
@@ -82,6 +90,7 @@ impl Feature {
                 Feature::TempGradLagCPerS { tau_s: v }
             }
             ("temp_play_c", Some(("width_mc", v))) => Feature::TempPlayC { width_mc: v },
+            ("warmup_decay", Some(("tau_s", v))) if v > 0 => Feature::WarmupDecay { tau_s: v },
             _ => return None,
         };
         Some(f)
@@ -110,8 +119,15 @@ pub struct ModelSpec<const D: usize> {
     pub features: [Feature; D],
     /// Per-feature mean used for standardisation, in the feature's unit.
     pub input_mean: [f32; D],
-    /// Per-feature 1/scale used for standardisation (z = (x − mean)·inv_scale).
+    /// Per-feature 1/scale used for standardisation (z = (x − mean)·inv_scale). 0: the
+    /// feature is not a kernel input (its support-vector entries are 0); it enters only
+    /// through [`ModelSpec::linear_dph`].
     pub input_inv_scale: [f32; D],
+    /// Coefficient of each feature's linear term, °/h per feature unit, on (x − mean): the
+    /// partially linear model f(x) = Eq. (10) + Σ_d linear_d·(x_d − mean_d), which carries a
+    /// diagnosed physics term (a hysteresis, a lagged gradient, a warm-up) with its own
+    /// amplitude next to the kernel. All zero: Eq. (10) alone.
+    pub linear_dph: [f32; D],
     /// Smallest value of each feature seen in training (raw unit): the valid range starts here.
     pub input_lo: [f32; D],
     /// Largest value of each feature seen in training (raw unit).
@@ -195,7 +211,8 @@ pub enum TableError {
     Shape,
     /// A stored number is NaN or infinite.
     NonFinite,
-    /// A scale is not positive, γ is not positive, or a range has lo > hi.
+    /// A scale is negative, γ is not positive, a range has lo > hi, or a feature outside the
+    /// kernel (scale 0) has a non-zero support-vector entry.
     Invalid,
     /// The dT/dt filter gains are outside the stable region.
     RateFilter,
@@ -214,7 +231,9 @@ impl core::fmt::Display for TableError {
         f.write_str(match self {
             TableError::Shape => "support vectors and coefficients differ in count, or none",
             TableError::NonFinite => "table holds a NaN or infinite number",
-            TableError::Invalid => "table has a non-positive scale or gamma, or an empty range",
+            TableError::Invalid => {
+                "table has a negative scale, a non-positive gamma, an empty range, or a kernel entry for a feature outside the kernel"
+            }
             TableError::RateFilter => "dT/dt filter gains are outside the stable region",
             TableError::Checksum { stored, computed } => {
                 return write!(
@@ -242,13 +261,23 @@ impl<const D: usize> ModelRef<'_, D> {
             && s.input_mean
                 .iter()
                 .chain(&s.input_inv_scale)
+                .chain(&s.linear_dph)
                 .all(|v| v.is_finite())
             && s.input_lo.iter().chain(&s.input_hi).all(|v| v.is_finite());
         if !all_finite {
             return Err(TableError::NonFinite);
         }
         let ranges_ok = s.input_lo.iter().zip(&s.input_hi).all(|(lo, hi)| lo <= hi);
-        if s.gamma <= 0.0 || s.input_inv_scale.iter().any(|v| *v <= 0.0) || !ranges_ok {
+        // `get`, not indexing: the board's 1 Hz path is proven panic-free at link time.
+        let outside_kernel_ok =
+            s.input_inv_scale.iter().enumerate().all(|(d, inv)| {
+                *inv != 0.0 || self.support.iter().all(|sv| sv.get(d) == Some(&0.0))
+            });
+        if s.gamma <= 0.0
+            || s.input_inv_scale.iter().any(|v| *v < 0.0)
+            || !ranges_ok
+            || !outside_kernel_ok
+        {
             return Err(TableError::Invalid);
         }
         if !s.rate_filter.is_stable() {

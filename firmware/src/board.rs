@@ -253,13 +253,19 @@ fn main() -> ! {
     }
     let (_, written) = out.end();
 
-    if FIXED_PASS {
-        let fixed = const {
-            &match FixedModel::from_table(&MODEL) {
-                Ok(f) => f,
+    // Evaluated at compile time only for an `RLG_FW_FIXED` build: a table without a Q24 form
+    // (large coefficients, more inputs than the fixed path takes) must still build the f32
+    // image, and a const block is evaluated whether or not its branch runs.
+    if let Some(fixed) = &const {
+        if FIXED_PASS {
+            match FixedModel::from_table(&MODEL) {
+                Ok(f) => Some(f),
                 Err(_) => panic!("the model table has no Q24 form"),
             }
-        };
+        } else {
+            None
+        }
+    } {
         let (temps, _) = replay::channels(data);
         let mut trace = FixedTrace::new(table.as_model());
         let mut fcost = Cost::default();

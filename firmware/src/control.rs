@@ -124,6 +124,7 @@ mod tests {
                 features: [Feature::TempC, Feature::TempRateCPerS],
                 input_mean: [30.0, 0.0],
                 input_inv_scale: [0.1, 100.0],
+                linear_dph: [0.0, 0.0],
                 input_lo: [0.0, -0.02],
                 input_hi: [70.0, 0.02],
                 gamma: 0.5,

@@ -209,6 +209,9 @@ pub fn time_exact(
         bias_dph: sol.bias,
         sigma,
         c,
+
+        in_kernel: Vec::new(),
+        linear_dph: Vec::new(),
     };
     let queries = 2000.min(z.len());
     let predict_s = median_s(reps, || {

@@ -44,6 +44,99 @@ pub enum ExportError {
     /// The converted table fails the board's own validation.
     #[error("the converted table fails board validation: {0}")]
     Table(compensator_core::TableError),
+    /// The board's f32 evaluation of the table departs from the f64 model by more than
+    /// [`EXPORT_LIMIT_DPH`] somewhere in the trained range.
+    #[error("the board's f32 evaluation departs from the model by {deviation_dph:.2e} °/h (limit {limit_dph:.0e} °/h): coefficients up to |a| = {max_alpha_dph:.2e} °/h cancel in f32; retrain with a smaller c")]
+    Precision {
+        /// Largest |f32 − f64| found, °/h.
+        deviation_dph: f64,
+        /// The limit, °/h.
+        limit_dph: f64,
+        /// Largest |a_i| of the model, °/h.
+        max_alpha_dph: f64,
+    },
+}
+
+/// The design budget of |board f32 − trainer f64|, °/h (measured by `tests/tests/f32_vs_f64.rs`;
+/// the close loop lowers c until a model meets it).
+pub const F32_BUDGET_DPH: f64 = 1e-5;
+
+/// The largest |board f32 − trainer f64| a table may show at export, °/h: five times the
+/// f32 budget of the tests (1e-5 °/h, `tests/tests/f32_vs_f64.rs`), the level of the
+/// fixed-point budget. A table beyond it would compensate differently on the board than the
+/// model that was validated, so it is refused rather than written.
+pub const EXPORT_LIMIT_DPH: f64 = 5e-5;
+
+/// Points [`f32_deviation_dph`] probes beyond the support vectors.
+const PROBES: usize = 1024;
+
+/// Largest |f32 board evaluation − f64 model| over the support vectors and [`PROBES`]
+/// quasi-random points (Halton) of the trained input box, °/h, each input rounded to f32
+/// first (what the board would see).
+pub fn f32_deviation_dph(m: &ModelFile) -> Result<f64, ExportError> {
+    match m.lssvm.dim() {
+        1 => deviation::<1>(m),
+        2 => deviation::<2>(m),
+        3 => deviation::<3>(m),
+        4 => deviation::<4>(m),
+        5 => deviation::<5>(m),
+        got => Err(ExportError::Dimension { got, want: 5 }),
+    }
+}
+
+/// The radical inverse of `i` in base `b` (Halton sequence component).
+fn radical_inverse(mut i: usize, b: usize) -> f64 {
+    let (mut f, mut r) = (1.0, 0.0);
+    while i > 0 {
+        f /= b as f64;
+        r += f * (i % b) as f64;
+        i /= b;
+    }
+    r
+}
+
+fn deviation<const D: usize>(m: &ModelFile) -> Result<f64, ExportError> {
+    const PRIMES: [usize; 5] = [2, 3, 5, 7, 11];
+    let t = to_f32::<D>(m)?;
+    let board = t.as_model();
+    let l = &m.lssvm;
+    let at = |x: [f32; D]| {
+        let xf: Vec<f64> = x.iter().map(|v| f64::from(*v)).collect();
+        (f64::from(board.predict_dph(&x)) - m.predict_dph(&xf)).abs()
+    };
+    let mut worst = 0.0f64;
+    for sv in &l.support {
+        let x: [f32; D] = core::array::from_fn(|d| {
+            let raw = sv[d] * l.scaling.scale[d] + l.scaling.mean[d];
+            (raw.clamp(m.input_lo[d], m.input_hi[d])) as f32
+        });
+        worst = worst.max(at(x));
+    }
+    for i in 1..=PROBES {
+        let x: [f32; D] = core::array::from_fn(|d| {
+            let u = radical_inverse(i, PRIMES[d]);
+            (m.input_lo[d] + u * (m.input_hi[d] - m.input_lo[d])) as f32
+        });
+        worst = worst.max(at(x));
+    }
+    Ok(worst)
+}
+
+/// [`f32_deviation_dph`] checked against [`EXPORT_LIMIT_DPH`].
+pub fn check_precision(m: &ModelFile) -> Result<f64, ExportError> {
+    let deviation_dph = f32_deviation_dph(m)?;
+    if deviation_dph > EXPORT_LIMIT_DPH || deviation_dph.is_nan() {
+        return Err(ExportError::Precision {
+            deviation_dph,
+            limit_dph: EXPORT_LIMIT_DPH,
+            max_alpha_dph: m
+                .lssvm
+                .alpha_dph
+                .iter()
+                .fold(0.0, |a, v| f64::max(a, v.abs())),
+        });
+    }
+    Ok(deviation_dph)
 }
 
 /// The board's numbers for a model: what the exported table holds, in owned form.
@@ -139,10 +232,18 @@ pub fn to_f32<const D: usize>(m: &ModelFile) -> Result<F32Model<D>, ExportError>
         Ok(out)
     };
     let mut inv_scale = [0.0f32; D];
+    let mut linear = [0.0f32; D];
     let mut lo = [0.0f32; D];
     let mut hi = [0.0f32; D];
     for d in 0..D {
-        inv_scale[d] = f32_of(1.0 / l.scaling.scale[d], "input_inv_scale")?;
+        // A feature outside the kernel gets inverse scale 0: its standardised input is 0 on
+        // the board, as in the trainer.
+        inv_scale[d] = if l.is_kernel_input(d) {
+            f32_of(1.0 / l.scaling.scale[d], "input_inv_scale")?
+        } else {
+            0.0
+        };
+        linear[d] = f32_of(l.linear_dph.get(d).copied().unwrap_or(0.0), "linear_dph")?;
         lo[d] = f32_outward(m.input_lo[d], true, "input_lo")?;
         hi[d] = f32_outward(m.input_hi[d], false, "input_hi")?;
     }
@@ -150,6 +251,7 @@ pub fn to_f32<const D: usize>(m: &ModelFile) -> Result<F32Model<D>, ExportError>
         features: feats,
         input_mean: per(&l.scaling.mean, "input_mean")?,
         input_inv_scale: inv_scale,
+        linear_dph: linear,
         input_lo: lo,
         input_hi: hi,
         gamma: f32_of(1.0 / (2.0 * l.sigma * l.sigma), "gamma")?,
@@ -196,6 +298,7 @@ fn variant(f: Feature) -> Result<String, ExportError> {
         Feature::TempGradLagCPerS { tau_s } => format!("TempGradLagCPerS {{ tau_s: {tau_s} }}"),
         Feature::TempPlayC { width_mc } => format!("TempPlayC {{ width_mc: {width_mc} }}"),
         Feature::TimeOnS => "TimeOnS".into(),
+        Feature::WarmupDecay { tau_s } => format!("WarmupDecay {{ tau_s: {tau_s} }}"),
         other => return Err(ExportError::Feature(other.to_string())),
     })
 }
@@ -205,7 +308,7 @@ fn render<const D: usize>(m: &ModelFile, command: &str) -> Result<String, Export
     let s = &t.spec;
     let n = t.support.len();
     let p = &m.provenance;
-    let names: Vec<&str> = s.features.iter().map(|f| f.name()).collect();
+    let names: Vec<String> = s.features.iter().map(|f| f.to_string()).collect();
     let mut o = String::new();
     // Writing to a String cannot fail.
     let _ = writeln!(o, "// @generated by {command} — do not edit");
@@ -268,6 +371,7 @@ pub fn table_item<const D: usize>(t: &F32Model<D>) -> Result<String, ExportError
     let _ = writeln!(o, "        features: [{}],", fs.join(", "));
     let _ = writeln!(o, "        input_mean: {},", list(&s.input_mean));
     let _ = writeln!(o, "        input_inv_scale: {},", list(&s.input_inv_scale));
+    let _ = writeln!(o, "        linear_dph: {},", list(&s.linear_dph));
     let _ = writeln!(o, "        input_lo: {},", list(&s.input_lo));
     let _ = writeln!(o, "        input_hi: {},", list(&s.input_hi));
     let _ = writeln!(o, "        gamma: {},", f32_literal(s.gamma));
@@ -302,11 +406,17 @@ pub fn table_item<const D: usize>(t: &F32Model<D>) -> Result<String, ExportError
 }
 
 /// The generated Rust source of the table, with `command` named in the `@generated` header.
+/// Refused when the board's f32 evaluation would depart from the model by more than
+/// [`EXPORT_LIMIT_DPH`] ([`check_precision`]).
 pub fn table_source(m: &ModelFile, command: &str) -> Result<String, ExportError> {
+    check_precision(m)?;
     match m.lssvm.dim() {
         1 => render::<1>(m, command),
         2 => render::<2>(m, command),
-        got => Err(ExportError::Dimension { got, want: 2 }),
+        3 => render::<3>(m, command),
+        4 => render::<4>(m, command),
+        5 => render::<5>(m, command),
+        got => Err(ExportError::Dimension { got, want: 5 }),
     }
 }
 
@@ -320,6 +430,53 @@ pub fn write_table(m: &ModelFile, command: &str, out: &Path) -> Result<(), Expor
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn model(sigma: f64, c: f64) -> ModelFile {
+        let x: Vec<Vec<f64>> = (0..200)
+            .map(|i| {
+                let t = i as f64;
+                vec![
+                    10.0 + 55.0 * (t * 0.618_033_988_7).fract(),
+                    0.02 * ((t * 0.414_213_562_4).fract() - 0.5),
+                ]
+            })
+            .collect();
+        let y: Vec<f64> = x
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                -7.1 + 1e-3 * (r[0] / 9.0).sin() + 0.4 * r[1] + 1e-4 * ((i * 37 % 11) as f64 - 5.0)
+            })
+            .collect();
+        let f = vec!["temp_c".to_string(), "temp_rate_c_per_s".to_string()];
+        let prov = crate::model::Provenance::from_bytes("synthetic", b"", "export test");
+        ModelFile::train(&f, &x, &y, sigma, c, 60.0, 1.0, false, prov).unwrap()
+    }
+
+    /// A well-regularised model exports within the f32 budget; a wide kernel with a huge c
+    /// (cancelling coefficients of ~1e5 °/h) is refused with the reason, not written.
+    #[test]
+    fn exports_are_refused_when_the_board_cannot_evaluate_them() {
+        let good = model(1.0, 100.0);
+        let d = check_precision(&good).unwrap();
+        assert!(d < F32_BUDGET_DPH, "{d}");
+        assert!(table_source(&good, "t").is_ok());
+        let bad = model(5.0, 1e9);
+        let e = table_source(&bad, "t").unwrap_err();
+        let ExportError::Precision {
+            deviation_dph,
+            max_alpha_dph,
+            ..
+        } = e
+        else {
+            panic!("{e}");
+        };
+        assert!(
+            deviation_dph > EXPORT_LIMIT_DPH && max_alpha_dph > 1e3,
+            "{e}"
+        );
+        assert!(e.to_string().contains("smaller c"));
+    }
 
     #[test]
     fn literals_round_trip_and_are_float_literals() {

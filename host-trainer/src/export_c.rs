@@ -36,7 +36,11 @@ pub fn c_header<const D: usize>(t: &F32Model<D>, what: &str) -> Result<String, E
     let _ = writeln!(o, " * {what}");
     let _ = writeln!(
         o,
-        " * f(x) = sum_i alpha_dph[i] * exp(-gamma * |z - support[i]|^2) + bias_dph,"
+        " * f(x) = sum_i alpha_dph[i] * exp(-gamma * |z - support[i]|^2) + bias_dph"
+    );
+    let _ = writeln!(
+        o,
+        " *        + sum_d linear_dph[d] * (x[d] - input_mean[d]),"
     );
     let _ = writeln!(
         o,
@@ -70,6 +74,11 @@ pub fn c_header<const D: usize>(t: &F32Model<D>, what: &str) -> Result<String, E
         o,
         "static const float rlg_input_inv_scale[RLG_D] = {};",
         list(&s.input_inv_scale)
+    );
+    let _ = writeln!(
+        o,
+        "static const float rlg_linear_dph[RLG_D] = {};",
+        list(&s.linear_dph)
     );
     let _ = writeln!(
         o,

@@ -131,8 +131,8 @@ pub struct ModelFile {
 }
 
 /// The reference condition for `features`: temperatures (T, lead-corrected T, play state) at
-/// [`REFERENCE_TEMP_C`], rates (dT/dt, lagged gradient) 0, time since power-on at its largest
-/// trained value (warmed up), each clamped into `[lo, hi]`.
+/// [`REFERENCE_TEMP_C`], rates (dT/dt, lagged gradient) 0, warmed up (time since power-on at
+/// its largest trained value, warm-up decay 0), each clamped into `[lo, hi]`.
 pub fn reference_input(features: &[String], lo: &[f64], hi: &[f64]) -> Vec<f64> {
     features
         .iter()

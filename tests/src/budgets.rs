@@ -45,6 +45,7 @@ pub fn synthetic_table(n: usize, seed: u64) -> F32Model<2> {
         features: [Feature::TempC, Feature::TempRateCPerS],
         input_mean: [36.4, 0.0],
         input_inv_scale: [0.0419, 174.4],
+        linear_dph: [0.0, 0.0],
         input_lo: [11.2, -0.015],
         input_hi: [68.9, 0.015],
         gamma: 0.5,
@@ -142,7 +143,15 @@ pub fn build_image(
     };
     let mut cmd = Command::new(&cargo);
     cmd.current_dir(firmware::workspace_root())
-        .args(["build", "-p", "firmware", "--profile", "firmware"])
+        .args([
+            "build",
+            "-p",
+            "firmware",
+            "--profile",
+            "firmware",
+            "--bin",
+            "firmware",
+        ])
         .args([
             "--target",
             opts.target.as_deref().unwrap_or(firmware::TARGET),

@@ -42,6 +42,32 @@ pub struct E2eReport {
     pub board_log: Vec<String>,
 }
 
+/// Replays `samples` through a host `Compensator` of `model` (fresh, as the image starts)
+/// and compares each output with the board's record: returns how many are identical in
+/// rate, correction and status bits, and the board's output rates.
+pub fn compare_with_host<const D: usize>(
+    model: compensator_core::ModelRef<'_, D>,
+    samples: &[ReplaySample],
+    records: &[firmware::OutputRecord],
+) -> (usize, Vec<f64>) {
+    let mut host = Compensator::new(model, SensorLimits::DEFAULT);
+    let mut identical = 0;
+    let mut board_out = Vec::with_capacity(samples.len());
+    for (s, r) in samples.iter().zip(records) {
+        let want = host.update(s.temp_c, s.rate_dph);
+        board_out.push(f64::from(f32::from_bits(r.rate_dph_bits)));
+        identical += usize::from(
+            (r.rate_dph_bits, r.correction_dph_bits, r.status)
+                == (
+                    want.rate_dph.to_bits(),
+                    want.correction_dph.to_bits(),
+                    want.status.0,
+                ),
+        );
+    }
+    (identical, board_out)
+}
+
 /// Runs the whole slice; `out` receives the model, table and replay files.
 pub fn run(out: &Path) -> anyhow::Result<E2eReport> {
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
@@ -102,21 +128,7 @@ pub fn run(out: &Path) -> anyhow::Result<E2eReport> {
         "QEMU exited with {:?}",
         qemu.exit_code
     );
-    let mut host = Compensator::new(f32_model.as_model(), SensorLimits::DEFAULT);
-    let mut identical = 0;
-    let mut board_out = Vec::with_capacity(samples.len());
-    for (s, r) in samples.iter().zip(&qemu.records) {
-        let want = host.update(s.temp_c, s.rate_dph);
-        board_out.push(f64::from(f32::from_bits(r.rate_dph_bits)));
-        identical += usize::from(
-            (r.rate_dph_bits, r.correction_dph_bits, r.status)
-                == (
-                    want.rate_dph.to_bits(),
-                    want.correction_dph.to_bits(),
-                    want.status.0,
-                ),
-        );
-    }
+    let (identical, board_out) = compare_with_host(f32_model.as_model(), &samples, &qemu.records);
 
     Ok(E2eReport {
         support_vectors: model.lssvm.support.len(),

@@ -169,6 +169,8 @@ fn build(
             "firmware",
             "--target",
             TARGET,
+            "--bin",
+            "firmware",
         ])
         .args(["--message-format", "json-render-diagnostics"])
         .env("RLG_REPLAY_BIN", &replay)

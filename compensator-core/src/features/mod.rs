@@ -14,6 +14,9 @@
 //!   it in one direction.
 //! * [`Feature::TimeOnS`]: k·dt after k periods since the first sample (skipped samples count:
 //!   time passes), saturating.
+//! * [`Feature::WarmupDecay`] τ: w ← w·e^(−dt/τ) per period, w = 1 at the first sample, so
+//!   w_k = e^(−k·dt/τ) (to f32 rounding per step); skipped periods decay it too, restarts of
+//!   the estimator do not reset it (power-on does).
 //!
 //! A rejected temperature sample ([`FeatureBank::skip`]) advances time and the lag with the
 //! held estimate and leaves the play state; a restart of the estimator ([`FeatureBank::reset`])
@@ -28,6 +31,7 @@ enum State {
     None,
     Lag { keep: f32, g: f32 },
     Play { half_c: f32, y: Option<f32> },
+    Decay { keep: f32, w: f32 },
 }
 
 /// The recursive state of every feature of a table.
@@ -53,6 +57,11 @@ impl<const D: usize> FeatureBank<D> {
                 half_c: width_mc as f32 * 0.0005,
                 y: None,
             },
+            Feature::WarmupDecay { tau_s } => State::Decay {
+                // τ = 0 is rejected by parse; it would give keep = 0 (an instant decay).
+                keep: libm::expf(-dt_s / tau_s as f32),
+                w: 1.0,
+            },
             _ => State::None,
         });
         FeatureBank {
@@ -69,7 +78,7 @@ impl<const D: usize> FeatureBank<D> {
         let r = est.rate_c_per_s;
         for st in &mut self.states {
             match st {
-                State::None => {}
+                State::None | State::Decay { .. } => {}
                 State::Lag { keep, g } => *g = r + *keep * (*g - r),
                 State::Play { half_c, y } => {
                     let prev = y.unwrap_or(temp_c);
@@ -87,8 +96,18 @@ impl<const D: usize> FeatureBank<D> {
             }
         }
         let x = self.values(temp_c, est);
-        self.periods = self.periods.saturating_add(1);
+        self.advance();
         x
+    }
+
+    /// One period passes: time on and the warm-up decay advance.
+    fn advance(&mut self) {
+        for st in &mut self.states {
+            if let State::Decay { keep, w } = st {
+                *w *= *keep;
+            }
+        }
+        self.periods = self.periods.saturating_add(1);
     }
 
     /// One period without an accepted temperature: time passes, the lag follows the held
@@ -99,14 +118,14 @@ impl<const D: usize> FeatureBank<D> {
                 *g = est.rate_c_per_s + *keep * (*g - est.rate_c_per_s);
             }
         }
-        self.periods = self.periods.saturating_add(1);
+        self.advance();
     }
 
     /// Clears the lag and play states (after an estimator restart); time keeps running.
     pub fn reset(&mut self) {
         for st in &mut self.states {
             match st {
-                State::None => {}
+                State::None | State::Decay { .. } => {}
                 State::Lag { g, .. } => *g = 0.0,
                 State::Play { y, .. } => *y = None,
             }
@@ -122,6 +141,7 @@ impl<const D: usize> FeatureBank<D> {
             (Feature::TempLeadC { tau_s }, _) => temp_c + tau_s as f32 * est.rate_c_per_s,
             (_, State::Lag { g, .. }) => g,
             (_, State::Play { y, .. }) => y.unwrap_or(temp_c),
+            (_, State::Decay { w, .. }) => w,
             (Feature::TimeOnS, _) => self.periods as f32 * self.dt_s,
             // A future feature this build does not compute: T, so the output stays finite.
             _ => temp_c,
@@ -211,6 +231,26 @@ mod tests {
         assert_eq!(b.update(20.0, &est(0.0))[0], 2.0);
     }
 
+    /// e^(−k·dt/τ) sampled, through skipped periods and an estimator restart, to f32 rounding
+    /// accumulated over the steps (k·2⁻²⁴ relative at most).
+    #[test]
+    fn warmup_decay_follows_the_exponential() {
+        let tau = 900u32;
+        let mut b = FeatureBank::new([Feature::WarmupDecay { tau_s: tau }], 1.0);
+        for k in 0..6000u32 {
+            let w = if k % 1000 == 500 {
+                b.skip(&est(0.0));
+                b.reset(); // an estimator restart leaves the warm-up state alone
+                continue;
+            } else {
+                b.update(20.0, &est(0.0))[0]
+            };
+            let want = (-f64::from(k) / f64::from(tau)).exp();
+            let tol = want * (f64::from(k) + 2.0) * 6e-8 + 1e-30;
+            assert!((f64::from(w) - want).abs() <= tol, "k={k}: {w} vs {want}");
+        }
+    }
+
     #[test]
     fn names_round_trip() {
         for f in [
@@ -220,12 +260,14 @@ mod tests {
             Feature::TempGradLagCPerS { tau_s: 45 },
             Feature::TempPlayC { width_mc: 150 },
             Feature::TimeOnS,
+            Feature::WarmupDecay { tau_s: 1800 },
         ] {
             let s = f.to_string();
             assert_eq!(Feature::parse(&s), Some(f), "{s}");
         }
         assert_eq!(Feature::parse("temp_lead_c"), None);
         assert_eq!(Feature::parse("temp_grad_lag_c_per_s(tau_s=0)"), None);
+        assert_eq!(Feature::parse("warmup_decay(tau_s=0)"), None);
         assert_eq!(Feature::parse("temp_c(tau_s=3)"), None);
     }
 }

@@ -147,6 +147,9 @@ pub const fn exp_neg_q27(x: u32) -> Kernel {
 pub enum FixedError {
     /// A number is NaN, infinite or outside its Q format's range (the name of the field).
     Range(&'static str),
+    /// The table has linear terms (`ModelSpec::linear_dph`), which the integer path does
+    /// not evaluate: Eq. (10) alone is converted.
+    LinearTerms,
 }
 
 /// A table in fixed point: N support vectors of dimension D.
@@ -172,6 +175,13 @@ const fn conv<const F: u32>(v: f32, what: &'static str) -> Result<Q<F>, FixedErr
 impl<const N: usize, const D: usize> FixedModel<N, D> {
     /// The fixed-point form of `t` (integer arithmetic only; usable in a `const` item).
     pub const fn from_table(t: &ModelTable<N, D>) -> Result<Self, FixedError> {
+        let mut d = 0;
+        while d < D {
+            if t.spec.linear_dph[d] != 0.0 {
+                return Err(FixedError::LinearTerms);
+            }
+            d += 1;
+        }
         let mut out = FixedModel {
             support: [[Q(0); D]; N],
             alpha: [Q(0); N],

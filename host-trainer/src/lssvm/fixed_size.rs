@@ -197,6 +197,8 @@ pub struct FixedSizeSolution {
     pub bias: f64,
     /// Rank r of the Nyström map (active points minus numerically redundant directions).
     pub rank: usize,
+    /// Coefficients of the linear columns ([`solve_on_active_with`]), target unit per unit.
+    pub linear: Vec<f64>,
 }
 
 /// Solves the fixed-size LS-SVM on standardised rows `z` and targets `y` (see the module
@@ -251,10 +253,31 @@ pub fn solve_on_active(
     c: f64,
     active: Vec<usize>,
 ) -> Result<FixedSizeSolution, LssvmError> {
+    solve_on_active_with(z, y, &[], sigma, c, active)
+}
+
+/// [`solve_on_active`] with unregularised linear columns `lin` (each of length n) next to the
+/// bias: the primal form of the partially linear LS-SVM, y ≈ Φw + b + Lβ with the ridge 1/c
+/// on w only.
+pub fn solve_on_active_with(
+    z: &Rows,
+    y: &[f64],
+    lin: &[Vec<f64>],
+    sigma: f64,
+    c: f64,
+    active: Vec<usize>,
+) -> Result<FixedSizeSolution, LssvmError> {
     let n = z.len();
     if active.is_empty() || n != y.len() || active.iter().any(|&a| a >= n) {
         return Err(LssvmError::Empty);
     }
+    if lin.iter().any(|col| col.len() != n) {
+        return Err(LssvmError::Length {
+            inputs: n,
+            targets: y.len(),
+        });
+    }
+    let p_lin = lin.len();
     let m = active.len();
     let inv = 1.0 / (2.0 * sigma * sigma);
     let kmm = Mat::<f64>::from_fn(m, m, |i, j| gauss(z.row(active[i]), z.row(active[j]), inv));
@@ -283,16 +306,19 @@ pub fn solve_on_active(
             let kc =
                 Mat::<f64>::from_fn(hi - lo, m, |i, j| gauss(z.row(lo + i), active_rows[j], inv));
             let phi = &kc * &p;
-            let aug =
-                Mat::<f64>::from_fn(hi - lo, r + 1, |i, k| if k < r { phi[(i, k)] } else { 1.0 });
+            let aug = Mat::<f64>::from_fn(hi - lo, r + 1 + p_lin, |i, k| match k {
+                k if k < r => phi[(i, k)],
+                k if k == r => 1.0,
+                k => lin[k - r - 1][lo + i],
+            });
             let g = aug.transpose() * &aug;
             let yc = Mat::<f64>::from_fn(hi - lo, 1, |i, _| y[lo + i]);
             let h = aug.transpose() * &yc;
             (g, h)
         })
         .collect();
-    let mut g = Mat::<f64>::zeros(r + 1, r + 1);
-    let mut h = Mat::<f64>::zeros(r + 1, 1);
+    let mut g = Mat::<f64>::zeros(r + 1 + p_lin, r + 1 + p_lin);
+    let mut h = Mat::<f64>::zeros(r + 1 + p_lin, 1);
     for (gp, hp) in &parts {
         g += gp;
         h += hp;
@@ -310,7 +336,8 @@ pub fn solve_on_active(
     let alpha_m = &p * w;
     let alpha: Vec<f64> = (0..m).map(|i| alpha_m[(i, 0)]).collect();
     let bias = wb[(r, 0)];
-    if !(bias.is_finite() && alpha.iter().all(|a| a.is_finite())) {
+    let linear: Vec<f64> = (0..p_lin).map(|k| wb[(r + 1 + k, 0)]).collect();
+    if !(bias.is_finite() && alpha.iter().chain(&linear).all(|a| a.is_finite())) {
         return Err(LssvmError::Singular);
     }
     Ok(FixedSizeSolution {
@@ -318,6 +345,7 @@ pub fn solve_on_active(
         alpha,
         bias,
         rank: r,
+        linear,
     })
 }
 

@@ -110,6 +110,14 @@ pub struct Lssvm {
     pub sigma: f64,
     /// Regularisation c of Eq. (9).
     pub c: f64,
+    /// Per feature, whether it is a kernel input (empty: every feature is). A feature outside
+    /// the kernel has 0 in every support vector and enters only through `linear_dph`.
+    #[serde(default)]
+    pub in_kernel: Vec<bool>,
+    /// Per feature, the coefficient of its linear term on (x − mean), °/h per unit (empty:
+    /// none; the partially linear model of [`solve::solve_partially_linear`]).
+    #[serde(default)]
+    pub linear_dph: Vec<f64>,
 }
 
 impl Lssvm {
@@ -139,12 +147,66 @@ impl Lssvm {
             bias_dph: sol.bias,
             sigma,
             c,
+            in_kernel: Vec::new(),
+            linear_dph: Vec::new(),
         })
     }
 
-    /// Eq. (10) at a raw feature vector, °/h.
+    /// Trains the partially linear model: the features with `linear[d]` set enter as linear
+    /// terms on (x − mean) beside the bias, the others as kernel inputs
+    /// ([`solve::solve_partially_linear`]). With no linear feature this is [`Lssvm::train`].
+    pub fn train_partially_linear(
+        features: &[String],
+        x: &[Vec<f64>],
+        y_dph: &[f64],
+        sigma: f64,
+        c: f64,
+        linear: &[bool],
+    ) -> Result<Lssvm, LssvmError> {
+        let (scaling, z, lin) = partially_linear_design(features, x, y_dph, linear)?;
+        let sol = solve::solve_partially_linear(&z, &lin, y_dph, sigma, c)?;
+        Ok(Lssvm {
+            features: features.to_vec(),
+            in_kernel: linear.iter().map(|l| !l).collect(),
+            linear_dph: expand_linear(linear, &sol.beta),
+            scaling,
+            support: z,
+            alpha_dph: sol.solution.alpha,
+            bias_dph: sol.solution.bias,
+            sigma,
+            c,
+        })
+    }
+
+    /// Whether feature `d` is a kernel input.
+    pub fn is_kernel_input(&self, d: usize) -> bool {
+        self.in_kernel.get(d).copied().unwrap_or(true)
+    }
+
+    /// The standardised kernel input of a raw feature vector (0 for features outside the
+    /// kernel, as the board's zero inverse scale gives).
+    pub fn standardise(&self, x: &[f64]) -> Vec<f64> {
+        let mut z = self.scaling.apply(x);
+        for (d, v) in z.iter_mut().enumerate() {
+            if !self.is_kernel_input(d) {
+                *v = 0.0;
+            }
+        }
+        z
+    }
+
+    /// Σ_d linear_d·(x_d − mean_d), °/h (0 without linear terms).
+    pub fn linear_part(&self, x: &[f64]) -> f64 {
+        self.linear_dph
+            .iter()
+            .zip(x.iter().zip(&self.scaling.mean))
+            .map(|(b, (v, m))| b * (v - m))
+            .sum()
+    }
+
+    /// The model at a raw feature vector, °/h: Eq. (10) plus the linear terms.
     pub fn predict(&self, x: &[f64]) -> f64 {
-        self.predict_standardised(&self.scaling.apply(x))
+        self.predict_standardised(&self.standardise(x)) + self.linear_part(x)
     }
 
     /// Eq. (10) at a standardised feature vector, °/h.
@@ -166,6 +228,65 @@ impl Lssvm {
     pub fn dim(&self) -> usize {
         self.features.len()
     }
+}
+
+/// The design of a partially linear model: the scaling (fitted on all features), the kernel
+/// inputs (standardised, 0 for linear features) and the linear columns (x − mean of each
+/// linear feature, in feature order).
+#[allow(clippy::type_complexity)]
+pub fn partially_linear_design(
+    features: &[String],
+    x: &[Vec<f64>],
+    y_dph: &[f64],
+    linear: &[bool],
+) -> Result<(Scaling, Vec<Vec<f64>>, Vec<Vec<f64>>), LssvmError> {
+    if x.len() != y_dph.len() {
+        return Err(LssvmError::Length {
+            inputs: x.len(),
+            targets: y_dph.len(),
+        });
+    }
+    if linear.len() != features.len() {
+        return Err(LssvmError::Dimension {
+            row: 0,
+            got: linear.len(),
+            want: features.len(),
+        });
+    }
+    let scaling = Scaling::fit(features, x)?;
+    let z: Vec<Vec<f64>> = x
+        .iter()
+        .map(|r| {
+            let mut z = scaling.apply(r);
+            for (d, v) in z.iter_mut().enumerate() {
+                if linear[d] {
+                    *v = 0.0;
+                }
+            }
+            z
+        })
+        .collect();
+    let lin: Vec<Vec<f64>> = (0..features.len())
+        .filter(|&d| linear[d])
+        .map(|d| x.iter().map(|r| r[d] - scaling.mean[d]).collect())
+        .collect();
+    Ok((scaling, z, lin))
+}
+
+/// The per-feature linear coefficients from those of the linear columns (0 elsewhere).
+pub fn expand_linear(linear: &[bool], beta: &[f64]) -> Vec<f64> {
+    let mut k = 0;
+    linear
+        .iter()
+        .map(|&l| {
+            if l {
+                k += 1;
+                beta[k - 1]
+            } else {
+                0.0
+            }
+        })
+        .collect()
 }
 
 #[cfg(test)]

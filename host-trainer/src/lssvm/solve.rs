@@ -155,6 +155,82 @@ pub fn solve(z: &[Vec<f64>], y: &[f64], sigma: f64, c: f64) -> Result<Solution, 
     factorise(z, y, sigma, c).map(|f| f.solution)
 }
 
+/// A partially linear solution: Eq. (10)'s a_i and b, and the coefficients β of the linear
+/// columns.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PartiallyLinear {
+    /// Kernel part and bias.
+    pub solution: Solution,
+    /// One coefficient per linear column, target unit per column unit.
+    pub beta: Vec<f64>,
+}
+
+/// Eq. (9) with linear regressors beside the kernel (the semiparametric LS-SVM):
+/// y_i = Σ_j a_j K(z_i, z_j) + a_i/c + b + Σ_k β_k L_ik with 1ᵀa = 0 and Lᵀa = 0.
+///
+/// With A = [1 L] and H = K + I/c: θ = [b; β] solves (AᵀH⁻¹A)θ = AᵀH⁻¹y and a = H⁻¹(y − Aθ),
+/// one Cholesky factorisation of H and 2 + p solves. `lin` holds the columns, each of length
+/// n; with none this is [`solve`].
+pub fn solve_partially_linear(
+    z: &[Vec<f64>],
+    lin: &[Vec<f64>],
+    y: &[f64],
+    sigma: f64,
+    c: f64,
+) -> Result<PartiallyLinear, LssvmError> {
+    validate(z, y, sigma, c)?;
+    let n = z.len();
+    if let Some(col) = lin.iter().find(|col| col.len() != n) {
+        return Err(LssvmError::Length {
+            inputs: col.len(),
+            targets: n,
+        });
+    }
+    if lin.iter().flatten().any(|v| !v.is_finite()) {
+        return Err(LssvmError::NonFinite {
+            what: "input",
+            index: 0,
+            feature: Some("linear column".into()),
+        });
+    }
+    let h = h_matrix(z, sigma, c);
+    let llt = h.llt(Side::Lower).map_err(|e| match e {
+        faer::linalg::solvers::LltError::NonPositivePivot { index } => {
+            LssvmError::NotPositiveDefinite { pivot: index }
+        }
+    })?;
+    let p = lin.len();
+    // Columns: y, 1, L₁ … L_p.
+    let mut rhs = Mat::<f64>::from_fn(n, p + 2, |i, j| match j {
+        0 => y[i],
+        1 => 1.0,
+        j => lin[j - 2][i],
+    });
+    llt.solve_in_place(&mut rhs);
+    let col = |j: usize, i: usize| match j {
+        0 => 1.0,
+        j => lin[j - 1][i],
+    };
+    let q = p + 1;
+    let m = Mat::<f64>::from_fn(q, q, |r, k| {
+        (0..n).map(|i| col(r, i) * rhs[(i, k + 1)]).sum()
+    });
+    let v = Mat::<f64>::from_fn(q, 1, |r, _| (0..n).map(|i| col(r, i) * rhs[(i, 0)]).sum());
+    let theta = m.full_piv_lu().solve(&v);
+    let alpha: Vec<f64> = (0..n)
+        .map(|i| rhs[(i, 0)] - (0..q).map(|k| rhs[(i, k + 1)] * theta[(k, 0)]).sum::<f64>())
+        .collect();
+    let bias = theta[(0, 0)];
+    let beta: Vec<f64> = (1..q).map(|k| theta[(k, 0)]).collect();
+    if !(bias.is_finite() && alpha.iter().chain(&beta).all(|a| a.is_finite())) {
+        return Err(LssvmError::Singular);
+    }
+    Ok(PartiallyLinear {
+        solution: Solution { alpha, bias },
+        beta,
+    })
+}
+
 /// Solves Eq. (9) and returns the leave-one-out residuals y_i − f₋ᵢ(x_i) (PRESS) with it.
 ///
 /// One factorisation serves both. diag(H⁻¹) comes from L⁻¹ alone: with H = LLᵀ,
@@ -239,6 +315,55 @@ mod tests {
 
     fn rel_err(a: f64, b: f64, scale: f64) -> f64 {
         (a - b).abs() / scale
+    }
+
+    /// The partially linear solve equals the full bordered system assembled as written
+    /// ([[H, 1, L], [1ᵀ, 0, 0], [Lᵀ, 0, 0]] solved by dense LU), and with no linear column
+    /// it is the plain solve.
+    #[test]
+    fn partially_linear_matches_the_bordered_system() {
+        let (z, y) = crate::lssvm::test_data::scattered(60);
+        let lin: Vec<Vec<f64>> = vec![
+            z.iter().map(|r| r[0] * r[1]).collect(),
+            z.iter().map(|r| (r[1] * 2.0).cos()).collect(),
+        ];
+        let (sigma, c) = (0.8, 200.0);
+        let got = solve_partially_linear(&z, &lin, &y, sigma, c).unwrap();
+        let n = z.len();
+        let k = kernel_matrix(&z, sigma);
+        let dim = n + 3;
+        let a = Mat::<f64>::from_fn(dim, dim, |i, j| match (i < n, j < n) {
+            (true, true) => k[(i, j)] + if i == j { 1.0 / c } else { 0.0 },
+            (true, false) => {
+                if j == n {
+                    1.0
+                } else {
+                    lin[j - n - 1][i]
+                }
+            }
+            (false, true) => {
+                if i == n {
+                    1.0
+                } else {
+                    lin[i - n - 1][j]
+                }
+            }
+            (false, false) => 0.0,
+        });
+        let b = Mat::<f64>::from_fn(dim, 1, |i, _| if i < n { y[i] } else { 0.0 });
+        let x = a.full_piv_lu().solve(&b);
+        for i in 0..n {
+            assert!((got.solution.alpha[i] - x[(i, 0)]).abs() < 1e-8 * (1.0 + x[(i, 0)].abs()));
+        }
+        assert!((got.solution.bias - x[(n, 0)]).abs() < 1e-9);
+        for kk in 0..2 {
+            assert!((got.beta[kk] - x[(n + 1 + kk, 0)]).abs() < 1e-9, "{kk}");
+        }
+        let plain = solve(&z, &y, sigma, c).unwrap();
+        let none = solve_partially_linear(&z, &[], &y, sigma, c).unwrap();
+        for i in 0..n {
+            assert!((plain.alpha[i] - none.solution.alpha[i]).abs() < 1e-9);
+        }
     }
 
     #[test]

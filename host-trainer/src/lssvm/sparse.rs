@@ -2,7 +2,9 @@
 //! the board's table of fixed capacity: one entry point, [`train_reduced`], over the two
 //! methods of [`super::fixed_size`] and [`super::prune`].
 
-use super::fixed_size::{solve_fixed_size, solve_on_active, FixedSizeOptions, Rows};
+use super::fixed_size::{
+    self, select_active_set, solve_fixed_size, solve_on_active, FixedSizeOptions, Rows,
+};
 use super::prune::prune;
 use super::{Lssvm, LssvmError, Scaling};
 
@@ -124,6 +126,39 @@ pub fn train_reduced(
         support,
         alpha_dph,
         bias_dph,
+        sigma,
+        c,
+        in_kernel: Vec::new(),
+        linear_dph: Vec::new(),
+    })
+}
+
+/// The partially linear model ([`Lssvm::train_partially_linear`]) as a fixed-size LS-SVM of
+/// at most `budget` support vectors: the active set is chosen on the kernel inputs, and the
+/// linear columns join the bias in the primal solve ([`fixed_size::solve_on_active_with`]).
+#[allow(clippy::too_many_arguments)]
+pub fn train_fixed_size_partially_linear(
+    features: &[String],
+    x: &[Vec<f64>],
+    y_dph: &[f64],
+    sigma: f64,
+    c: f64,
+    budget: usize,
+    linear: &[bool],
+) -> Result<Lssvm, LssvmError> {
+    let (scaling, z, lin) = super::partially_linear_design(features, x, y_dph, linear)?;
+    let rows = Rows::from_rows(&z);
+    let opts = FixedSizeOptions::with_budget(budget);
+    let active = select_active_set(&rows, budget, sigma, opts.trials, opts.seed);
+    let s = fixed_size::solve_on_active_with(&rows, y_dph, &lin, sigma, c, active)?;
+    Ok(Lssvm {
+        features: features.to_vec(),
+        support: s.active.iter().map(|&i| rows.row(i).to_vec()).collect(),
+        alpha_dph: s.alpha,
+        bias_dph: s.bias,
+        in_kernel: linear.iter().map(|l| !l).collect(),
+        linear_dph: super::expand_linear(linear, &s.linear),
+        scaling,
         sigma,
         c,
     })

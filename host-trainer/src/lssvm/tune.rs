@@ -12,7 +12,10 @@
 //!
 //! The score is the RMS of the out-of-fold residuals (°/h). The coarse grid σ × c is evaluated
 //! in parallel (rayon, one task per point); then `refine` rounds each evaluate the 3 × 3 grid
-//! at half the previous log step around the best point so far.
+//! at half the previous log step around the best point so far (inside the grid's range).
+//! The choice is the most regularised point (smallest c, then widest σ) whose score is within
+//! [`PARSIMONY`] (1 %) of the best: near its minimum the CV curve is flat, and the smaller c
+//! keeps the coefficients the board sums in f32 small.
 //!
 //! The standardisation is fitted once on all inputs and shared by the folds: it uses the
 //! inputs' spread, never the targets, so no target information leaks into a fold.
@@ -20,7 +23,7 @@
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 
-use super::{solve, LssvmError, Scaling};
+use super::{solve, LssvmError};
 
 /// How the out-of-sample error of a (σ, c) is estimated.
 #[derive(Clone, Debug, PartialEq)]
@@ -31,6 +34,12 @@ pub enum Validation {
     Blocked {
         /// Contiguous samples per block.
         block: usize,
+        /// Number of folds (≥ 2).
+        folds: usize,
+    },
+    /// `folds` contiguous runs of samples, each left out in turn: the model must predict a
+    /// stretch of time it has not seen, as a held-out later cycle asks of it.
+    Contiguous {
         /// Number of folds (≥ 2).
         folds: usize,
     },
@@ -46,6 +55,9 @@ impl Validation {
             Validation::Blocked { block, folds } => {
                 format!("blocked {folds}-fold CV, blocks of {block} consecutive samples")
             }
+            Validation::Contiguous { folds } => {
+                format!("contiguous {folds}-fold CV (each fold one stretch of time)")
+            }
             Validation::Groups(g) => {
                 let mut u = g.clone();
                 u.sort_unstable();
@@ -55,6 +67,10 @@ impl Validation {
         }
     }
 }
+
+/// The choice is the most regularised point whose CV RMS is within this fraction of the
+/// best one's (see [`tune`]).
+pub const PARSIMONY: f64 = 0.01;
 
 /// A logarithmic search grid.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -151,6 +167,16 @@ fn folds(validation: &Validation, n: usize) -> Result<Vec<Vec<usize>>, TuneError
                 .map(|f| (0..n).filter(|i| (i / block) % folds == f).collect())
                 .collect())
         }
+        Validation::Contiguous { folds } => {
+            if *folds < 2 || n < 2 * folds {
+                return Err(TuneError::Setup(format!(
+                    "contiguous CV needs folds ≥ 2 and at least two samples per fold (have {n} for {folds})"
+                )));
+            }
+            Ok((0..*folds)
+                .map(|f| (f * n / folds..(f + 1) * n / folds).collect())
+                .collect())
+        }
         Validation::Groups(g) => {
             if g.len() != n {
                 return Err(TuneError::Setup(format!(
@@ -174,8 +200,16 @@ fn folds(validation: &Validation, n: usize) -> Result<Vec<Vec<usize>>, TuneError
     }
 }
 
-/// Out-of-fold RMS at one (σ, c); NaN when any fold fails to train.
-fn score(z: &[Vec<f64>], y: &[f64], folds: &[Vec<usize>], sigma: f64, c: f64) -> f64 {
+/// Out-of-fold RMS at one (σ, c); NaN when any fold fails to train. `lin` are the linear
+/// columns of a partially linear model (none: Eq. (9)).
+fn score(
+    z: &[Vec<f64>],
+    lin: &[Vec<f64>],
+    y: &[f64],
+    folds: &[Vec<usize>],
+    sigma: f64,
+    c: f64,
+) -> f64 {
     if folds.is_empty() {
         return solve::loo_residuals(z, y, sigma, c).map_or(f64::NAN, |r| {
             (r.iter().map(|v| v * v).sum::<f64>() / r.len() as f64).sqrt()
@@ -188,29 +222,58 @@ fn score(z: &[Vec<f64>], y: &[f64], folds: &[Vec<usize>], sigma: f64, c: f64) ->
     for fold in folds {
         held.iter_mut().for_each(|h| *h = false);
         fold.iter().for_each(|&i| held[i] = true);
-        let (zt, yt): (Vec<Vec<f64>>, Vec<f64>) = (0..n)
-            .filter(|&i| !held[i])
-            .map(|i| (z[i].clone(), y[i]))
-            .unzip();
-        let Ok(sol) = solve::solve(&zt, &yt, sigma, c) else {
+        let keep: Vec<usize> = (0..n).filter(|&i| !held[i]).collect();
+        let zt: Vec<Vec<f64>> = keep.iter().map(|&i| z[i].clone()).collect();
+        let yt: Vec<f64> = keep.iter().map(|&i| y[i]).collect();
+        let lt: Vec<Vec<f64>> = lin
+            .iter()
+            .map(|col| keep.iter().map(|&i| col[i]).collect())
+            .collect();
+        let Ok(sol) = solve::solve_partially_linear(&zt, &lt, &yt, sigma, c) else {
             return f64::NAN;
         };
         let inv = 1.0 / (2.0 * sigma * sigma);
         for &i in fold {
             let f: f64 = zt
                 .iter()
-                .zip(&sol.alpha)
+                .zip(&sol.solution.alpha)
                 .map(|(s, a)| {
                     let d2: f64 = s.iter().zip(&z[i]).map(|(p, q)| (p - q) * (p - q)).sum();
                     a * (-d2 * inv).exp()
                 })
                 .sum::<f64>()
-                + sol.bias;
+                + sol.solution.bias
+                + lin
+                    .iter()
+                    .zip(&sol.beta)
+                    .map(|(col, b)| b * col[i])
+                    .sum::<f64>();
             ss += (y[i] - f).powi(2);
             count += 1;
         }
     }
     (ss / count as f64).sqrt()
+}
+
+/// The cross-validated RMS, °/h, of one (σ, c) of the (partially linear) model under
+/// `validation`: the score [`tune`] ranks by, for a model chosen some other way.
+pub fn cross_validate(
+    features: &[String],
+    x: &[Vec<f64>],
+    y_dph: &[f64],
+    linear: &[bool],
+    validation: &Validation,
+    sigma: f64,
+    c: f64,
+) -> Result<f64, TuneError> {
+    let (_, z, lin) = super::partially_linear_design(features, x, y_dph, linear)?;
+    let folds = folds(validation, z.len())?;
+    let v = score(&z, &lin, y_dph, &folds, sigma, c);
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(TuneError::NothingTrained)
+    }
 }
 
 fn best(points: &[CvPoint]) -> Option<CvPoint> {
@@ -223,6 +286,7 @@ fn best(points: &[CvPoint]) -> Option<CvPoint> {
 
 fn evaluate(
     z: &[Vec<f64>],
+    lin: &[Vec<f64>],
     y: &[f64],
     folds: &[Vec<usize>],
     pairs: &[(f64, f64)],
@@ -231,7 +295,7 @@ fn evaluate(
     pairs
         .par_iter()
         .map(|&(sigma, c)| {
-            let cv_rms_dph = score(z, y, folds, sigma, c);
+            let cv_rms_dph = score(z, lin, y, folds, sigma, c);
             progress.inc(1);
             CvPoint {
                 sigma,
@@ -253,6 +317,28 @@ pub fn tune(
     grid: &Grid,
     progress: &ProgressBar,
 ) -> Result<Tuned, TuneError> {
+    let linear = vec![false; features.len()];
+    tune_partially_linear(features, x, y_dph, &linear, validation, grid, progress)
+}
+
+/// [`tune`] for the partially linear model of `Lssvm::train_partially_linear`: the features
+/// with `linear[d]` set are linear terms, the rest kernel inputs. Leave-one-out is closed
+/// form for the kernel model only; with linear terms use a fold scheme.
+pub fn tune_partially_linear(
+    features: &[String],
+    x: &[Vec<f64>],
+    y_dph: &[f64],
+    linear: &[bool],
+    validation: &Validation,
+    grid: &Grid,
+    progress: &ProgressBar,
+) -> Result<Tuned, TuneError> {
+    if linear.iter().any(|l| *l) && matches!(validation, Validation::LeaveOneOut) {
+        return Err(TuneError::Setup(
+            "closed-form leave-one-out is for the kernel model; give a fold scheme for linear terms"
+                .to_string(),
+        ));
+    }
     let ok = |(lo, hi): (f64, f64)| lo > 0.0 && hi >= lo && hi.is_finite();
     if !(ok(grid.sigma) && ok(grid.c) && grid.sigma_points >= 2 && grid.c_points >= 2) {
         return Err(TuneError::Setup(format!(
@@ -275,8 +361,7 @@ pub fn tune(
         }
         .into());
     }
-    let scaling = Scaling::fit(features, x)?;
-    let z: Vec<Vec<f64>> = x.iter().map(|r| scaling.apply(r)).collect();
+    let (_, z, lin) = super::partially_linear_design(features, x, y_dph, linear)?;
     let folds = folds(validation, z.len())?;
     if matches!(validation, Validation::LeaveOneOut) && z.len() < 3 {
         return Err(TuneError::Setup(format!(
@@ -291,7 +376,7 @@ pub fn tune(
         .flat_map(|&s| cs.iter().map(move |&c| (s, c)))
         .collect();
     progress.set_length((pairs.len() + 9 * grid.refine) as u64);
-    let curve = evaluate(&z, y_dph, &folds, &pairs, progress);
+    let curve = evaluate(&z, &lin, y_dph, &folds, &pairs, progress);
     let mut at = best(&curve).ok_or(TuneError::NothingTrained)?;
     // Log steps of the coarse grid; each refinement halves them.
     let mut ds = (grid.sigma.1 / grid.sigma.0).ln() / (grid.sigma_points - 1) as f64;
@@ -303,12 +388,16 @@ pub fn tune(
         let local: Vec<(f64, f64)> = [-1.0, 0.0, 1.0]
             .iter()
             .flat_map(|i| {
-                [-1.0, 0.0, 1.0]
-                    .iter()
-                    .map(move |j| (at.sigma * (i * ds).exp(), at.c * (j * dc).exp()))
+                [-1.0, 0.0, 1.0].iter().map(move |j| {
+                    // Refinement stays inside the declared search range.
+                    (
+                        (at.sigma * (i * ds).exp()).clamp(grid.sigma.0, grid.sigma.1),
+                        (at.c * (j * dc).exp()).clamp(grid.c.0, grid.c.1),
+                    )
+                })
             })
             .collect();
-        let pts = evaluate(&z, y_dph, &folds, &local, progress);
+        let pts = evaluate(&z, &lin, y_dph, &folds, &local, progress);
         if let Some(b) = best(&pts) {
             if b.cv_rms_dph < at.cv_rms_dph {
                 at = b;
@@ -317,10 +406,22 @@ pub fn tune(
         refined.extend(pts);
     }
     progress.finish_and_clear();
+    // Among the points within `PARSIMONY` of the best, the most regularised (smallest c,
+    // then widest σ): CV curves are flat near their minimum, and a smaller c keeps the
+    // coefficients small, which the board's f32 sum needs (cancelling |a_i| of 1e4 lose
+    // 1e-3 °/h there).
+    let limit = at.cv_rms_dph * (1.0 + PARSIMONY);
+    let chosen = curve
+        .iter()
+        .chain(&refined)
+        .filter(|p| p.cv_rms_dph <= limit)
+        .copied()
+        .min_by(|a, b| a.c.total_cmp(&b.c).then(b.sigma.total_cmp(&a.sigma)))
+        .unwrap_or(at);
     Ok(Tuned {
-        sigma: at.sigma,
-        c: at.c,
-        cv_rms_dph: at.cv_rms_dph,
+        sigma: chosen.sigma,
+        c: chosen.c,
+        cv_rms_dph: chosen.cv_rms_dph,
         curve,
         refined,
         validation: validation.describe(),
@@ -330,7 +431,7 @@ pub fn tune(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::lssvm::Lssvm;
+    use crate::lssvm::{Lssvm, Scaling};
 
     /// An `Lssvm` trained on already standardised rows (identity scaling), σ = 0.7, c = 50.
     fn refit(f: &[String], xt: Vec<Vec<f64>>, yt: &[f64]) -> Lssvm {
@@ -346,6 +447,9 @@ mod tests {
             bias_dph: m.bias,
             sigma: 0.7,
             c: 50.0,
+
+            in_kernel: Vec::new(),
+            linear_dph: Vec::new(),
         }
     }
 
@@ -364,7 +468,7 @@ mod tests {
         let zs: Vec<Vec<f64>> = z.iter().map(|r| scaling.apply(r)).collect();
         let v = Validation::Blocked { block: 4, folds: 3 };
         let fo = folds(&v, zs.len()).unwrap();
-        let got = score(&zs, &y, &fo, 0.7, 50.0);
+        let got = score(&zs, &[], &y, &fo, 0.7, 50.0);
         let mut ss = 0.0;
         for fold in &fo {
             let keep: Vec<usize> = (0..60).filter(|i| !fold.contains(i)).collect();
@@ -379,7 +483,7 @@ mod tests {
         let want = (ss / 60.0).sqrt();
         assert!((got - want).abs() < 1e-12 * want, "{got} vs {want}");
 
-        let loo = score(&zs, &y, &[], 0.7, 50.0);
+        let loo = score(&zs, &[], &y, &[], 0.7, 50.0);
         let mut ss = 0.0;
         for i in 0..60 {
             let keep: Vec<usize> = (0..60).filter(|&j| j != i).collect();
@@ -422,8 +526,16 @@ mod tests {
                 &ProgressBar::hidden(),
             )
             .unwrap();
-            let coarse_best = best(&t.curve).unwrap();
-            assert!(t.cv_rms_dph <= coarse_best.cv_rms_dph, "{v:?}");
+            // Within the parsimony tolerance of every evaluated point, and the most
+            // regularised of those that are.
+            let all: Vec<CvPoint> = t.curve.iter().chain(&t.refined).copied().collect();
+            let best_all = best(&all).unwrap();
+            let limit = best_all.cv_rms_dph * (1.0 + PARSIMONY);
+            assert!(t.cv_rms_dph <= limit, "{v:?}");
+            assert!(
+                all.iter().all(|p| p.cv_rms_dph > limit || p.c >= t.c),
+                "{v:?}: a smaller c is within tolerance"
+            );
             assert!(t.sigma > 0.05 && t.sigma < 5.0, "{v:?}: sigma {}", t.sigma);
             assert!(
                 t.cv_rms_dph > 0.8 * noise && t.cv_rms_dph < 1.5 * noise,
@@ -433,6 +545,13 @@ mod tests {
             assert_eq!(t.curve.len(), 63);
             assert_eq!(t.refined.len(), 27);
         }
+    }
+
+    #[test]
+    fn contiguous_folds_cover_each_sample_once_in_order() {
+        let f = folds(&Validation::Contiguous { folds: 3 }, 10).unwrap();
+        assert_eq!(f, vec![vec![0, 1, 2], vec![3, 4, 5], vec![6, 7, 8, 9]]);
+        assert!(folds(&Validation::Contiguous { folds: 3 }, 5).is_err());
     }
 
     #[test]

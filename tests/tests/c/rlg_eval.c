@@ -13,14 +13,16 @@
 
 #include "rlg_model_table.h"
 
-/* Eq. (10) in float with compensated (Neumaier) summation, as compensator_core::lssvm. */
+/* Eq. (10) in float with compensated (Neumaier) summation, plus the linear terms. */
 float rlg_predict_dph(const float x_raw[RLG_D]) {
     float z[RLG_D];
+    float linear = 0.0f;
     for (int d = 0; d < RLG_D; d++) {
         float x = x_raw[d];
         if (!(x >= rlg_input_lo[d])) x = rlg_input_lo[d]; /* also catches NaN */
         if (x > rlg_input_hi[d]) x = rlg_input_hi[d];
         z[d] = (x - rlg_input_mean[d]) * rlg_input_inv_scale[d];
+        linear += rlg_linear_dph[d] * (x - rlg_input_mean[d]);
     }
     float sum = 0.0f, carry = 0.0f;
     for (int i = 0; i < RLG_N; i++) {
@@ -35,7 +37,7 @@ float rlg_predict_dph(const float x_raw[RLG_D]) {
         else carry += (term - t) + sum;
         sum = t;
     }
-    return sum + carry + rlg_bias_dph;
+    return sum + carry + rlg_bias_dph + linear;
 }
 
 /* Bitwise CRC-32/ISO-HDLC (reflected 0xEDB88320). */
@@ -62,8 +64,9 @@ uint32_t rlg_table_crc32(void) {
         c = crc_u32(c, rlg_feature_code[d]);
         if (rlg_feature_has_param[d]) c = crc_u32(c, rlg_feature_param[d]);
     }
-    const float *vecs[4] = {rlg_input_mean, rlg_input_inv_scale, rlg_input_lo, rlg_input_hi};
-    for (int v = 0; v < 4; v++)
+    const float *vecs[5] = {rlg_input_mean, rlg_input_inv_scale, rlg_linear_dph, rlg_input_lo,
+                            rlg_input_hi};
+    for (int v = 0; v < 5; v++)
         for (int d = 0; d < RLG_D; d++) c = crc_u32(c, bits(vecs[v][d]));
     c = crc_u32(c, bits(rlg_gamma));
     c = crc_u32(c, bits(rlg_bias_dph));

@@ -15,6 +15,7 @@ pub const MODEL: compensator_core::ModelTable<11, 1> = compensator_core::ModelTa
         features: [compensator_core::Feature::TempC],
         input_mean: [14.680909],
         input_inv_scale: [0.03206169],
+        linear_dph: [0.0],
         input_lo: [-34.800003],
         input_hi: [63.59],
         gamma: 0.5,
@@ -53,5 +54,5 @@ pub const MODEL: compensator_core::ModelTable<11, 1> = compensator_core::ModelTa
         -3.4357903,
         0.7522669,
     ],
-    crc32: 0x6f7e2c96,
+    crc32: 0x13bfe5ee,
 };
