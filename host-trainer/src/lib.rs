@@ -7,6 +7,7 @@ pub mod atomic;
 pub mod baselines;
 pub mod bench;
 pub mod cli;
+pub mod closeloop;
 pub mod cycles;
 pub mod diagnose;
 pub mod export;

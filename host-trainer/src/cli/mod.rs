@@ -2,6 +2,7 @@
 
 pub mod bench;
 pub mod benchmark_diagnose;
+pub mod close_loop;
 pub mod default_table;
 pub mod diagnose;
 pub mod export;
@@ -45,6 +46,10 @@ pub enum Command {
     Diagnose(diagnose::DiagnoseArgs),
     /// Run the concealed-effect benchmark of the diagnosis and print its table.
     BenchmarkDiagnose(benchmark_diagnose::BenchmarkDiagnoseArgs),
+    /// Turn a diagnosis into compensation features, retrain on them and compare held out.
+    CloseLoop(close_loop::CloseLoopArgs),
+    /// Run the close loop on the concealed-effect benchmark's lag, hysteresis and warm-up cases.
+    BenchmarkCloseLoop(close_loop::BenchmarkCloseLoopArgs),
     /// Reproduce the static least-squares quadratic of Table 1 / Fig. 2(a).
     StaticRepro(static_repro::Args),
     /// Reproduce every result of the paper, print it beside the published values and write
@@ -66,6 +71,8 @@ impl Cli {
             Command::SparseReport(a) => bench::run_sparse(&a),
             Command::Diagnose(a) => diagnose::run(&a),
             Command::BenchmarkDiagnose(a) => benchmark_diagnose::run(&a),
+            Command::CloseLoop(a) => close_loop::run(&a, command_line),
+            Command::BenchmarkCloseLoop(a) => close_loop::run_benchmark(&a),
             Command::StaticRepro(a) => static_repro::run(&a),
             Command::Report(a) => report::run(&a),
         }

@@ -457,6 +457,26 @@ fn build_case(
     })
 }
 
+/// Case `id` of the benchmark with master seed `seed` (the same draw and noise seed as
+/// [`run_benchmark`] gives it when `family` is the family its plan puts at `id`): the profile
+/// description, the hidden term and the simulation.
+pub fn case_simulation(
+    id: usize,
+    family: Option<Family>,
+    seed: u64,
+) -> Result<(String, Option<Term>, crate::simulate::Simulation), BenchError> {
+    let case = build_case(id, family, seed, &PhysicsModel::paper())?;
+    let sim = simulate(&case.scenario, seed.wrapping_add(id as u64))?;
+    Ok((case.profile, case.hidden, sim))
+}
+
+/// The benchmark's case number of the `k`-th case of `family` with `per_term` cases per
+/// family (the plan of [`run_benchmark`]: each family's cases in `Family::ALL` order).
+pub fn case_id(family: Family, k: usize, per_term: usize) -> usize {
+    let pos = Family::ALL.iter().position(|f| *f == family).unwrap_or(0);
+    pos * per_term + k
+}
+
 /// The recording's hidden term, from its truth sidecar only: the scenario's term that the
 /// benchmark adds beyond the base set.
 fn hidden_from_truth(truth: &Truth) -> Option<Term> {

@@ -1,0 +1,126 @@
+//! The close loop end to end on the board: a recording with a hysteresis the paper's model
+//! lacks is diagnosed, the finding becomes the play-operator feature (a linear term beside the
+//! kernel on [T, dT/dt]), cross-validation adopts it, it beats the [T, dT/dt] LS-SVM on the
+//! held-out cycle, and its exported three-input table runs in QEMU (Cortex-M4F) bit for bit
+//! like the host `Compensator`.
+//!
+//! Needs `qemu-system-arm` and the thumb target (`bash tests/setup.sh`); skipped with a message
+//! without QEMU, except under CI.
+
+use std::time::Duration;
+
+use compensator_core::Feature;
+use host_trainer::closeloop::{
+    augmented_features, first_cycle_end_s, train_and_score, Inputs, Protocol,
+};
+use host_trainer::diagnose::{diagnose, Options, PhysicsModel};
+use host_trainer::export;
+use host_trainer::model::Provenance;
+use host_trainer::physics::Term;
+use host_trainer::simulate::{simulate, Scenario};
+use tests::budgets::{build_image, ImageOptions};
+use tests::e2e::compare_with_host;
+use tests::firmware;
+use tests::replay::{self, ReplaySample};
+
+/// The shipped dynamic scenario shortened to two cycles with 1.5 h holds, its sensor lag and
+/// backscatter ripple removed and a hysteresis of 6 °C width and ±0.002 °/h added.
+fn scenario() -> Scenario {
+    let text = include_str!("../../host-trainer/scenarios/yu2011-dynamic.toml");
+    let mut s: Scenario = toml::from_str(text).expect("scenario parses");
+    s.profile = toml::from_str::<toml::Table>(
+        r#"p = [{ kind = "repeat", count = 2, segments = [
+            { kind = "hold", duration_s = 5400.0 },
+            { kind = "ramp", to_c = 65.0, rate_c_per_min = 1.0 },
+            { kind = "hold", duration_s = 5400.0 },
+            { kind = "ramp", to_c = 10.0, rate_c_per_min = 1.0 } ] }]"#,
+    )
+    .ok()
+    .and_then(|t| t.get("p").cloned())
+    .and_then(|v| v.try_into().ok())
+    .expect("profile parses");
+    s.terms
+        .retain(|t| !matches!(t, Term::SensorLag { .. } | Term::Backscatter { .. }));
+    s.terms.push(Term::Hysteresis {
+        width_c: 6.0,
+        height_dph: 0.002,
+    });
+    s
+}
+
+#[test]
+fn diagnosed_hysteresis_becomes_a_board_feature_that_runs_bit_for_bit() {
+    if !firmware::qemu_or_skip("diagnosed_hysteresis_becomes_a_board_feature_that_runs_bit_for_bit")
+    {
+        return;
+    }
+    let rec = simulate(&scenario(), 3).expect("simulates").recording;
+    let d = diagnose(&rec, &PhysicsModel::paper(), &Options::default()).expect("diagnoses");
+    let (feats, _) = augmented_features(&d);
+    assert_eq!(feats.features.len(), 3, "{:#?}", d.findings);
+    assert_eq!(feats.linear, [false, false, true]);
+    let Feature::TempPlayC { width_mc } = feats.features[2] else {
+        panic!("expected the play feature, got {feats:?}");
+    };
+    assert!(
+        (width_mc as f64 / 6000.0 - 1.0).abs() < 0.2,
+        "width {width_mc} m°C"
+    );
+
+    let end = first_cycle_end_s(&rec).expect("two cycles");
+    let prov = Provenance::from_bytes("qemu_close_loop scenario", b"", "qemu_close_loop test");
+    let protocol = Protocol::default();
+    let base = train_and_score(&rec, end, &Inputs::base(), &protocol, &prov).unwrap();
+    let aug = train_and_score(&rec, end, &feats, &protocol, &prov).unwrap();
+    for (name, s) in [("[T, dT/dt]", &base), ("augmented", &aug)] {
+        println!(
+            "{name}: σ = {:.3}, c = {:.3e}, CV rms {:.4e}, held-out 100 s stability {:.4e} °/h (board f32 {:?}, max |f32 − f64| {:.1e})",
+            s.sigma, s.c, s.cv_rms_dph, s.test_b100_dph, s.board_b100_dph, s.board_deviation_dph
+        );
+    }
+    assert!(
+        protocol.adopts(&base, &aug),
+        "cross-validation keeps the base model"
+    );
+    assert!(
+        aug.test_b100_dph < 0.95 * base.test_b100_dph,
+        "augmented {} vs base {}",
+        aug.test_b100_dph,
+        base.test_b100_dph
+    );
+
+    // The three-input table on the board, replaying the held-out cycle.
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
+    let table = dir.join("close_loop_table.rs");
+    let source = export::table_source(&aug.model, "qemu_close_loop test").unwrap();
+    std::fs::write(&table, source).unwrap();
+    let split = rec.time_s.partition_point(|t| *t <= end);
+    let samples: Vec<ReplaySample> = (split..rec.len())
+        .map(|k| ReplaySample {
+            temp_c: rec.temp_c[k] as f32,
+            rate_dph: rec.rate_dph[k] as f32,
+        })
+        .collect();
+    let bin = dir.join("close_loop_replay.bin");
+    replay::write(&bin, &samples).unwrap();
+    let elf = dir.join("close_loop_firmware.elf");
+    let opts = ImageOptions {
+        table_file: Some(table),
+        ..ImageOptions::default()
+    };
+    build_image(&bin, &opts, &elf).unwrap_or_else(|e| panic!("{e}"));
+    let run = firmware::run_qemu(&elf, Duration::from_secs(300)).unwrap_or_else(|e| panic!("{e}"));
+    for line in &run.log {
+        println!("  {line}");
+    }
+    assert_eq!(run.exit_code, Some(0));
+    assert!(run.log.iter().any(|l| l.contains("D=3")), "{:?}", run.log);
+    assert_eq!(run.records.len(), samples.len());
+    let t = export::to_f32::<3>(&aug.model).unwrap();
+    let (identical, _) = compare_with_host(t.as_model(), &samples, &run.records);
+    println!(
+        "{identical} of {} samples bit-identical on the board",
+        samples.len()
+    );
+    assert_eq!(identical, samples.len());
+}
