@@ -128,6 +128,8 @@ pub struct Compensator<'a, const D: usize> {
     bank: FeatureBank<D>,
     skipped: u32,
     last_good_dph: f32,
+    /// Whether the table has linear terms (else their sum, exactly 0, is skipped).
+    linear: bool,
 }
 
 impl<'a, const D: usize> Compensator<'a, D> {
@@ -155,6 +157,7 @@ impl<'a, const D: usize> Compensator<'a, D> {
             bank: FeatureBank::new(model.spec.features, model.spec.rate_filter.dt_s),
             skipped: 0,
             last_good_dph: 0.0,
+            linear: model.spec.linear_dph.iter().any(|b| *b != 0.0),
         }
     }
 
@@ -229,7 +232,14 @@ impl<'a, const D: usize> Compensator<'a, D> {
                     *v = if *v > hi { hi } else { lo };
                 }
             }
-            Some(self.model.predict_dph(&x) - s.reference_dph)
+            let f = if self.linear {
+                self.model.predict_dph(&x)
+            } else {
+                // The same value: predict_dph adds a linear sum of exactly 0.
+                self.model
+                    .predict_standardised_dph(&self.model.standardise(&x))
+            };
+            Some(f - s.reference_dph)
         } else {
             status |= Status::TEMP_FAULT;
             self.skipped = self.skipped.saturating_add(1);

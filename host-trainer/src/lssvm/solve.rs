@@ -104,13 +104,25 @@ pub fn kernel_matrix(z: &[Vec<f64>], sigma: f64) -> Mat<f64> {
     k
 }
 
-/// H = K + I/c.
+/// H = K + I/c, lower triangle only: the Cholesky factorisation (`Side::Lower`) reads
+/// nothing else, and filling column by column writes contiguous memory (the matrix is
+/// column-major), where mirroring each entry would stride across columns.
 fn h_matrix(z: &[Vec<f64>], sigma: f64, c: f64) -> Mat<f64> {
-    let mut h = kernel_matrix(z, sigma);
-    for i in 0..z.len() {
-        h[(i, i)] += 1.0 / c;
-    }
-    h
+    let n = z.len();
+    let dim = z.first().map_or(0, Vec::len);
+    let flat: Vec<f64> = z.iter().flat_map(|r| r.iter().copied()).collect();
+    let inv = 1.0 / (2.0 * sigma * sigma);
+    Mat::<f64>::from_fn(n, n, |i, j| {
+        if i < j {
+            return 0.0;
+        }
+        if i == j {
+            return 1.0 + 1.0 / c;
+        }
+        let (zi, zj) = (&flat[i * dim..(i + 1) * dim], &flat[j * dim..(j + 1) * dim]);
+        let d2: f64 = zi.iter().zip(zj).map(|(a, b)| (a - b) * (a - b)).sum();
+        (-d2 * inv).exp()
+    })
 }
 
 /// The Cholesky factor of H and the two solves of the block elimination.
