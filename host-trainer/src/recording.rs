@@ -204,6 +204,51 @@ impl Recording {
         Ok(rec)
     }
 
+    /// Plausibility of the units, for a warning (the data are still read): a temperature
+    /// column whose median is above 150 looks like Kelvin; a rate whose values all stay
+    /// within ±1e-3 looks like rad/s (an RLG's bias and the Earth rate are several °/h, i.e.
+    /// 1e-5 … 1e-4 rad/s); a median time step above 100 s or below 1 ms looks like another
+    /// time unit; gaps (steps over 1.5 × the median) are counted. Empty when all is plausible.
+    pub fn unit_warnings(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        let median = |v: &[f64]| {
+            let mut s = v.to_vec();
+            s.sort_by(f64::total_cmp);
+            s.get(s.len() / 2).copied()
+        };
+        for (name, col) in [
+            ("temp_c", Some(&self.temp_c)),
+            ("chamber_c", self.chamber_c.as_ref()),
+        ] {
+            if let Some(m) = col.and_then(|c| median(c)).filter(|m| *m > 150.0) {
+                out.push(format!(
+                    "{name}: median {m:.2} looks like Kelvin; the column must be °C (subtract 273.15)"
+                ));
+            }
+        }
+        let peak = self.rate_dph.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        if !self.rate_dph.is_empty() && peak < 1e-3 {
+            out.push(format!(
+                "rate_dph: every value within ±{peak:.1e}, which looks like rad/s; the column must be °/h (rad/s × 206 264.8 = 3600·180/π)"
+            ));
+        }
+        let steps: Vec<f64> = self.time_s.windows(2).map(|w| w[1] - w[0]).collect();
+        if let Some(step) = median(&steps) {
+            if !(1e-3..=100.0).contains(&step) {
+                out.push(format!(
+                    "time_s: median step {step} s looks like another unit; the column must be seconds"
+                ));
+            }
+            let gaps = steps.iter().filter(|s| **s > 1.5 * step).count();
+            if gaps > 0 {
+                out.push(format!(
+                    "time_s: {gaps} gap(s) longer than 1.5 sample periods; features bridge them as the board bridges missing samples, 100 s statistics use consecutive samples"
+                ));
+            }
+        }
+        out
+    }
+
     /// Checks that every column has one entry per sample and that extra fields can be
     /// written without quoting; the message says which column is at fault.
     fn check_writable(&self) -> Result<(), String> {
@@ -296,6 +341,36 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RecordingError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Kelvin temperatures, a rate in rad/s, milliseconds and a gap each give a warning that
+    /// names the column; plausible data give none.
+    #[test]
+    fn implausible_units_are_warned_about() {
+        let ok = Recording {
+            time_s: vec![0.0, 1.0, 2.0, 3.0],
+            rate_dph: vec![-7.1, -7.11, -7.09, -7.1],
+            temp_c: vec![25.0, 25.1, 25.2, 25.3],
+            ..Recording::default()
+        };
+        assert!(ok.unit_warnings().is_empty(), "{:?}", ok.unit_warnings());
+        let bad = Recording {
+            time_s: vec![0.0, 1000.0, 2000.0, 5000.0],
+            rate_dph: vec![-3.4e-5, -3.5e-5, -3.4e-5, -3.3e-5],
+            temp_c: vec![298.15, 298.2, 298.3, 298.4],
+            ..Recording::default()
+        };
+        let w = bad.unit_warnings().join("\n");
+        for want in [
+            "temp_c",
+            "Kelvin",
+            "rate_dph",
+            "rad/s",
+            "time_s: median step",
+            "1 gap",
+        ] {
+            assert!(w.contains(want), "{want} missing in:\n{w}");
+        }
+    }
 
     fn parse(text: &str) -> Result<Recording, RecordingError> {
         Recording::parse_csv(text, "x.csv")

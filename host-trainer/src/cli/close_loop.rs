@@ -47,6 +47,7 @@ fn read_diagnosis(p: &PathBuf) -> anyhow::Result<Diagnosis> {
 /// Runs `rlg close-loop`.
 pub fn run(args: &CloseLoopArgs, command_line: &str) -> anyhow::Result<()> {
     let rec = Recording::read_csv(&args.recording)?;
+    super::warn_units(&args.recording, &rec);
     let d = match &args.diagnosis {
         Some(p) => read_diagnosis(p)?,
         None => diagnose(&rec, &PhysicsModel::paper(), &Options::default())?,

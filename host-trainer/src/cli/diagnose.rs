@@ -27,6 +27,7 @@ pub struct DiagnoseArgs {
 /// Runs the subcommand.
 pub fn run(args: &DiagnoseArgs) -> anyhow::Result<()> {
     let rec = Recording::read_csv(&args.recording)?;
+    super::warn_units(&args.recording, &rec);
     let model = match &args.model {
         Some(p) => {
             let text =

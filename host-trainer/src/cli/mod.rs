@@ -79,6 +79,14 @@ impl Cli {
     }
 }
 
+/// Prints the recording's unit warnings ([`crate::recording::Recording::unit_warnings`]) on
+/// stderr, naming the file.
+pub fn warn_units(path: &std::path::Path, rec: &crate::recording::Recording) {
+    for w in rec.unit_warnings() {
+        eprintln!("warning: {}: {w}", path.display());
+    }
+}
+
 /// The command line as a reproducible string: `rlg` followed by the arguments, each quoted
 /// when it holds a space (the program's own path is not recorded).
 pub fn command_line<I: IntoIterator<Item = String>>(args: I) -> String {

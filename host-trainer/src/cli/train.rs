@@ -51,6 +51,7 @@ pub fn run(a: &TrainArgs, command_line: &str) -> anyhow::Result<()> {
         (Some(p), _) => (p, dataset::table1_from_csv(p)?),
         (None, Some(p)) => {
             let rec = Recording::read_csv(p)?;
+            super::warn_units(p, &rec);
             let sel = RecordingSelection {
                 from_s: a.from_s,
                 to_s: a.to_s,
