@@ -5,10 +5,12 @@
 //! * [`e2e`]: the README's main job (train, export, run the board image, compare).
 //! * [`budgets`]: board budgets (instructions, flash, RAM, stack) measured in QEMU.
 //! * [`firmware`]: build the board image for a replay file, run it in QEMU, decode its output.
+//! * [`fuzz_checks`]: the properties the fuzz targets check, replayed on the kept corpus.
 
 pub mod budgets;
 pub mod e2e;
 pub mod firmware;
+pub mod fuzz_checks;
 pub mod replay;
 
 /// Support vectors in the committed default board table.
