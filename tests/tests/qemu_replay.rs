@@ -110,6 +110,40 @@ fn qemu_replay_matches_host_bit_for_bit() {
         &mismatches[..mismatches.len().min(10)]
     );
 
+    // Each injected fault is flagged on the board at its samples, and the board recovers:
+    // after a one-sample fault the next sample is compensated again without a warm-up, after
+    // the 40-sample dropout the estimator re-warms (WARMING_UP) and then compensates again.
+    let status = |k: usize| Status(run.records[k].status);
+    for (first, len, fault) in replay::SCENARIO_FAULTS {
+        let want = match fault {
+            replay::Injected::NanRate => Status::GYRO_FAULT,
+            _ => Status::TEMP_FAULT,
+        };
+        for k in first..first + len {
+            assert!(
+                status(k).contains(want),
+                "{fault:?} at sample {k}: status {:#04x}",
+                status(k).0
+            );
+        }
+        let after = first + len;
+        if len == 1 {
+            assert!(
+                !status(after).is_fault() && !status(after).contains(Status::WARMING_UP),
+                "{fault:?}: no recovery at sample {after}: {:#04x}",
+                status(after).0
+            );
+        } else {
+            assert!(status(after).contains(Status::WARMING_UP));
+            // Back to compensating: no fault, warmed up (OUT_OF_RANGE may stay: the
+            // scenario ends below the table's trained range, and that is flagged, clamped).
+            let back = (after..input.len())
+                .find(|&k| !status(k).is_fault() && !status(k).contains(Status::WARMING_UP))
+                .expect("recovers after the dropout");
+            assert!(back - after <= 300, "re-warm took {} samples", back - after);
+        }
+    }
+
     // The image's own summary agrees with the host's counts.
     let summary = run
         .log
