@@ -452,3 +452,98 @@ mod tests {
         );
     }
 }
+
+/// Numerical edge cases of training and export: each gives a clear error or a model whose
+/// exported table holds only finite numbers (the exporter's own checks then decide).
+#[cfg(test)]
+mod edge_cases {
+    use super::*;
+
+    fn names() -> Vec<String> {
+        vec!["temp_c".into(), "temp_rate_c_per_s".into()]
+    }
+
+    fn data(n: usize) -> (Vec<Vec<f64>>, Vec<f64>) {
+        let x: Vec<Vec<f64>> = (0..n)
+            .map(|i| {
+                let t = i as f64;
+                vec![
+                    10.0 + 55.0 * (t * 0.618_033_988_7).fract(),
+                    0.02 * ((t * 0.414_213_562_4).fract() - 0.5),
+                ]
+            })
+            .collect();
+        let y = x.iter().map(|r| -7.1 - 2e-4 * r[0] + 0.4 * r[1]).collect();
+        (x, y)
+    }
+
+    fn train(x: &[Vec<f64>], y: &[f64], sigma: f64, c: f64) -> Result<ModelFile, ModelError> {
+        let prov = Provenance::from_bytes("edge", b"", "edge-case test");
+        ModelFile::train(&names(), x, y, sigma, c, 60.0, 1.0, false, prov)
+    }
+
+    /// A trained model either exports a table of finite numbers or is refused by the
+    /// exporter with a reason; nothing non-finite reaches a table.
+    fn exports_finite_or_refuses(m: &ModelFile, what: &str) {
+        match crate::export::to_f32::<2>(m) {
+            Ok(t) => {
+                let finite = t
+                    .support
+                    .iter()
+                    .flatten()
+                    .chain(&t.alpha_dph)
+                    .all(|v| v.is_finite())
+                    && t.spec.bias_dph.is_finite()
+                    && t.spec.gamma.is_finite()
+                    && t.spec.gamma > 0.0;
+                assert!(finite, "{what}: non-finite table");
+            }
+            Err(e) => assert!(!e.to_string().is_empty(), "{what}"),
+        }
+    }
+
+    #[test]
+    fn extreme_hyper_parameters() {
+        let (x, y) = data(60);
+        for (sigma, c) in [(1e-6, 10.0), (1e6, 10.0), (1.0, 1e-12), (1.0, 1e12)] {
+            match train(&x, &y, sigma, c) {
+                Ok(m) => exports_finite_or_refuses(&m, &format!("σ {sigma} c {c}")),
+                Err(e) => assert!(e.to_string().contains("positive definite"), "{e}"),
+            }
+        }
+        for (sigma, c) in [
+            (0.0, 1.0),
+            (f64::INFINITY, 1.0),
+            (1.0, 0.0),
+            (1.0, f64::NAN),
+        ] {
+            let e = train(&x, &y, sigma, c).unwrap_err().to_string();
+            assert!(e.contains("must be a positive finite number"), "{e}");
+        }
+    }
+
+    #[test]
+    fn degenerate_data() {
+        // Duplicated inputs: fine with a finite c.
+        let (mut x, mut y) = data(30);
+        x.extend(x.clone());
+        y.extend(y.clone());
+        exports_finite_or_refuses(&train(&x, &y, 1.0, 100.0).unwrap(), "duplicates");
+        // One temperature point, or dT/dt ≡ 0: the constant feature is named.
+        let (x, y) = data(30);
+        let one_t: Vec<Vec<f64>> = x.iter().map(|r| vec![25.0, r[1]]).collect();
+        let e = train(&one_t, &y, 1.0, 10.0).unwrap_err().to_string();
+        assert!(e.contains("temp_c") && e.contains("constant"), "{e}");
+        let still: Vec<Vec<f64>> = x.iter().map(|r| vec![r[0], 0.0]).collect();
+        let e = train(&still, &y, 1.0, 10.0).unwrap_err().to_string();
+        assert!(
+            e.contains("temp_rate_c_per_s") && e.contains("constant"),
+            "{e}"
+        );
+        // NaN in the data: named, never trained on.
+        let mut bad = y.clone();
+        bad[7] = f64::NAN;
+        let e = train(&x, &bad, 1.0, 10.0).unwrap_err().to_string();
+        assert!(e.contains("non-finite") || e.contains("NaN"), "{e}");
+    }
+}
