@@ -22,6 +22,7 @@ pub mod pipeline;
 pub mod plot;
 pub mod recording;
 pub mod repro;
+pub mod resample;
 pub mod simulate;
 pub mod sparse_eval;
 pub mod table1;

@@ -8,6 +8,7 @@ pub mod diagnose;
 pub mod export;
 pub mod fleet;
 pub mod report;
+pub mod resample;
 pub mod simulate;
 pub mod static_repro;
 pub mod train;
@@ -50,6 +51,8 @@ pub enum Command {
     CloseLoop(close_loop::CloseLoopArgs),
     /// Run the close loop on the concealed-effect benchmark's lag, hysteresis and warm-up cases.
     BenchmarkCloseLoop(close_loop::BenchmarkCloseLoopArgs),
+    /// Bring a high-rate, jittered or bursty log to a recording: period means or burst means.
+    Resample(resample::ResampleArgs),
     /// Reproduce the static least-squares quadratic of Table 1 / Fig. 2(a).
     StaticRepro(static_repro::Args),
     /// Reproduce every result of the paper, print it beside the published values and write
@@ -73,6 +76,7 @@ impl Cli {
             Command::BenchmarkDiagnose(a) => benchmark_diagnose::run(&a),
             Command::CloseLoop(a) => close_loop::run(&a, command_line),
             Command::BenchmarkCloseLoop(a) => close_loop::run_benchmark(&a),
+            Command::Resample(a) => resample::run(&a),
             Command::StaticRepro(a) => static_repro::run(&a),
             Command::Report(a) => report::run(&a),
         }
