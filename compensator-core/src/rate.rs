@@ -282,4 +282,67 @@ mod tests {
         assert!(!RateFilter::from_tau_s(-5.0, 1.0).is_stable());
         assert!(!RateFilter::from_tau_s(60.0, 0.0).is_stable());
     }
+
+    mod property {
+        use super::super::*;
+        use proptest::prelude::*;
+
+        /// One step of a sequence: a reading, or a run of periods without one (long runs
+        /// exercise the restart).
+        #[derive(Clone, Debug)]
+        enum Step {
+            Read(f32),
+            Skip(u32),
+        }
+
+        fn step() -> impl Strategy<Value = Step> {
+            prop_oneof![
+                8 => (-100.0f32..200.0).prop_map(Step::Read),
+                1 => (1u32..60).prop_map(Step::Skip),
+            ]
+        }
+
+        proptest! {
+            /// For any sequence of plausible readings and missing periods, driven as the
+            /// compensator drives it (a restart after 30 missing periods in a row), the
+            /// estimate stays finite and bounded: the level within the readings' range widened
+            /// by that range, the rate within range/dt (no input sequence makes it run away).
+            #[test]
+            fn estimator_is_stable_for_any_sequence(seq in proptest::collection::vec(step(), 1..2000)) {
+                let f = RateFilter::from_tau_s(60.0, 1.0);
+                let mut est = RateEstimator::new(f);
+                let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+                let mut skipped = 0;
+                let mut estimates = Vec::new();
+                for s in &seq {
+                    match s {
+                        Step::Read(t) => {
+                            lo = lo.min(*t);
+                            hi = hi.max(*t);
+                            skipped = 0;
+                            estimates.push(est.update(*t));
+                        }
+                        Step::Skip(n) => {
+                            for _ in 0..*n {
+                                skipped += 1;
+                                if skipped >= 30 {
+                                    est.reset();
+                                } else {
+                                    estimates.push(est.skip());
+                                }
+                            }
+                        }
+                    }
+                }
+                for e in estimates {
+                    prop_assert!(e.level_c.is_finite() && e.rate_c_per_s.is_finite(), "{e:?}");
+                    if lo <= hi {
+                        let range = (hi - lo).max(1.0);
+                        prop_assert!(e.rate_c_per_s.abs() <= range / f.dt_s, "{e:?} range {range}");
+                        prop_assert!(e.level_c >= lo - range && e.level_c <= hi + range, "{e:?}");
+                    }
+                }
+            }
+        }
+    }
 }
