@@ -489,13 +489,7 @@ fn hidden_from_truth(truth: &Truth) -> Option<Term> {
 }
 
 fn term_from_finding(d: &Diagnosis) -> Option<Term> {
-    let f = d.findings.first()?;
-    let mut m = toml::Table::new();
-    m.insert("kind".into(), f.mechanism.clone().into());
-    for (k, v) in &f.parameters {
-        m.insert(k.clone(), toml::Value::Float(*v));
-    }
-    toml::Value::Table(m).try_into().ok()
+    d.findings.first()?.term()
 }
 
 /// JSON value → TOML value, numbers as f64 (integers kept when they are integers).

@@ -186,5 +186,36 @@ pub fn diagnose(
     opts: &Options,
 ) -> Result<Diagnosis, DiagnoseError> {
     let prep = prepare::prepare(rec)?;
-    search::run(&prep, model, opts)
+    let mut d = search::run(&prep, model, opts)?;
+    // Further findings: the term found is added to the model (its amplitude refitted with
+    // the baseline, its non-linear parameter kept) and the search runs again on what is
+    // left, with its own bootstrap threshold, until nothing more is significant.
+    let mut current = model.clone();
+    while d.verdict == Verdict::MissingPhysics && d.findings.len() < MAX_FINDINGS {
+        let Some(term) = d.findings.last().and_then(Finding::term) else {
+            break;
+        };
+        current.terms.push(term);
+        let next = search::run(&prep, &current, opts)?;
+        match (next.verdict, next.findings.into_iter().next()) {
+            (Verdict::MissingPhysics, Some(f)) => d.findings.push(f),
+            _ => break,
+        }
+    }
+    Ok(d)
+}
+
+/// The most findings one diagnosis reports.
+pub const MAX_FINDINGS: usize = 3;
+
+impl Finding {
+    /// The physics-library term this finding names, with its fitted parameters.
+    pub fn term(&self) -> Option<crate::physics::Term> {
+        let mut m = toml::Table::new();
+        m.insert("kind".into(), self.mechanism.clone().into());
+        for (k, v) in &self.parameters {
+            m.insert(k.clone(), toml::Value::Float(*v));
+        }
+        toml::Value::Table(m).try_into().ok()
+    }
 }

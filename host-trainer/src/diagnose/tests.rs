@@ -84,6 +84,39 @@ fn injected_hysteresis_is_found() {
     assert!(f.improved.b100_dph < d.baseline.b100_dph);
 }
 
+/// Two hidden terms, a hysteresis and a backscatter ripple: both are found (the second
+/// after the first is added to the model), each with its key parameter within 20 %.
+#[test]
+fn two_hidden_terms_give_two_findings() {
+    let d = run(
+        vec![
+            Term::Hysteresis {
+                width_c: 8.0,
+                height_dph: 0.004,
+            },
+            Term::Backscatter {
+                period_c: 25.0,
+                amplitude_dph: 0.003,
+                phase_rad: 0.0,
+            },
+        ],
+        15,
+    );
+    assert_eq!(d.verdict, Verdict::MissingPhysics, "{:#?}", d.evidence);
+    let mut found: Vec<&str> = d.findings.iter().map(|f| f.mechanism.as_str()).collect();
+    found.sort_unstable();
+    assert_eq!(found, ["backscatter", "hysteresis"], "{:#?}", d.findings);
+    let p = |m: &str, k: &str| {
+        d.findings
+            .iter()
+            .find(|f| f.mechanism == m)
+            .unwrap()
+            .parameters[k]
+    };
+    assert!((p("hysteresis", "width_c") / 8.0 - 1.0).abs() < 0.2);
+    assert!((p("backscatter", "period_c") / 25.0 - 1.0).abs() < 0.2);
+}
+
 /// The JSON carries the contract's field names, with `where` (not `where_`).
 #[test]
 fn json_contract_field_names() {
