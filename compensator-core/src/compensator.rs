@@ -11,9 +11,18 @@
 //!    absorbed (the estimator extrapolates, see [`crate::RateEstimator::skip`]), the raw rate
 //!    passes through uncompensated, `TEMP_FAULT`. After `max_skipped` consecutive faulty
 //!    samples the estimator is reset and re-warms on the next good sample.
-//! 4. A feature outside the range seen in training: the feature is clamped to that range, the
+//! 4. Temperature bit-identical to the previous `stuck_samples` accepted readings (a frozen
+//!    sensor or ADC): `TEMP_STUCK`. The model keeps compensating at the held reading (the best
+//!    estimate left, and exactly right if the body really is steady; the estimator's dT/dt
+//!    decays to 0). A steady chamber hold can read one code that long on a coarse sensor: the
+//!    flag is then a harmless false alarm, since the output is the same as without it. When the
+//!    reading moves again by more than `max_temp_step_c` from the held value, the frozen span
+//!    is discarded: the estimator restarts at the new reading (`WARMING_UP`) instead of treating
+//!    the jump as a fault or absorbing it as a ramp; a move within `max_temp_step_c` (the end of
+//!    a real hold) is absorbed as usual.
+//! 5. A feature outside the range seen in training: the feature is clamped to that range, the
 //!    clamped model compensates, `OUT_OF_RANGE`.
-//! 5. Fewer than `warmup_samples` good samples since (re)start: the model compensates with the
+//! 6. Fewer than `warmup_samples` good samples since (re)start: the model compensates with the
 //!    estimate it has, `WARMING_UP`.
 //!
 //! Every output is finite: the raw rate is only passed through when it is finite, and the
@@ -41,6 +50,9 @@ impl Status {
     pub const GYRO_FAULT: Status = Status(1 << 3);
     /// The model table failed validation; the raw rate is passed through.
     pub const TABLE_FAULT: Status = Status(1 << 4);
+    /// The temperature has read bit-identical for `stuck_samples` accepted samples; the model
+    /// compensates at the held reading.
+    pub const TEMP_STUCK: Status = Status(1 << 5);
 
     /// Whether every bit of `other` is set in `self`.
     pub const fn contains(self, other: Status) -> bool {
@@ -54,7 +66,9 @@ impl Status {
 
     /// Whether a fault (not just warm-up or clamping) was flagged.
     pub const fn is_fault(self) -> bool {
-        self.0 & (Self::TEMP_FAULT.0 | Self::GYRO_FAULT.0 | Self::TABLE_FAULT.0) != 0
+        self.0
+            & (Self::TEMP_FAULT.0 | Self::GYRO_FAULT.0 | Self::TABLE_FAULT.0 | Self::TEMP_STUCK.0)
+            != 0
     }
 }
 
@@ -85,6 +99,9 @@ pub struct SensorLimits {
     pub rate_limit_dph: f32,
     /// Consecutive rejected temperature samples after which the estimator restarts.
     pub max_skipped: u32,
+    /// Repeats of one bit-identical temperature reading after which it is flagged
+    /// `TEMP_STUCK` (0: never).
+    pub stuck_samples: u32,
 }
 
 impl SensorLimits {
@@ -96,6 +113,9 @@ impl SensorLimits {
         max_temp_step_c: 2.0,
         rate_limit_dph: 3.6e6,
         max_skipped: 30,
+        // 20 min: longer than any hold in the shipped scenarios reads one 0.01 °C code, and a
+        // frozen sensor costs at most the model error at the held temperature meanwhile.
+        stuck_samples: 1200,
     };
 }
 
@@ -128,6 +148,13 @@ pub struct Compensator<'a, const D: usize> {
     bank: FeatureBank<D>,
     skipped: u32,
     last_good_dph: f32,
+    /// Bits of the last accepted temperature reading (meaningless while `repeats` is 0 and
+    /// nothing was accepted yet).
+    last_temp_bits: u32,
+    /// How many accepted readings in a row repeated `last_temp_bits`.
+    repeats: u32,
+    /// Whether a reading has been accepted since the last restart of the estimator.
+    have_last: bool,
     /// Whether the table has linear terms (else their sum, exactly 0, is skipped).
     linear: bool,
 }
@@ -157,6 +184,9 @@ impl<'a, const D: usize> Compensator<'a, D> {
             bank: FeatureBank::new(model.spec.features, model.spec.rate_filter.dt_s),
             skipped: 0,
             last_good_dph: 0.0,
+            last_temp_bits: 0,
+            repeats: 0,
+            have_last: false,
             linear: model.spec.linear_dph.iter().any(|b| *b != 0.0),
         }
     }
@@ -193,6 +223,21 @@ impl<'a, const D: usize> Compensator<'a, D> {
         libm::fabsf(temp_c - predicted) <= l.max_temp_step_c * periods
     }
 
+    /// Whether the last accepted temperature reading has repeated `stuck_samples` times.
+    fn is_stuck(&self) -> bool {
+        self.limits.stuck_samples > 0 && self.repeats >= self.limits.stuck_samples
+    }
+
+    /// Forgets the temperature history: the estimator and the recursive features restart and
+    /// warm up again on the next accepted reading.
+    fn restart_estimator(&mut self) {
+        self.rate.reset();
+        self.bank.skip(&self.rate.estimate());
+        self.bank.reset();
+        self.repeats = 0;
+        self.have_last = false;
+    }
+
     /// Processes one 1 Hz sample.
     pub fn update(&mut self, temp_c: f32, gyro_dph: f32) -> Compensated {
         if !self.table_ok {
@@ -217,8 +262,28 @@ impl<'a, const D: usize> Compensator<'a, D> {
             status |= Status::GYRO_FAULT;
         }
 
+        if self.is_stuck() && temp_c.to_bits() != self.last_temp_bits {
+            let held = f32::from_bits(self.last_temp_bits);
+            let l = &self.limits;
+            let in_band = temp_c >= l.temp_min_c && temp_c <= l.temp_max_c; // false for NaN
+            if in_band && libm::fabsf(temp_c - held) > l.max_temp_step_c {
+                // Rule 4: the frozen span ends with a jump; restart at the new reading.
+                self.restart_estimator();
+            }
+        }
         let correction = if self.temp_is_plausible(temp_c) {
             self.skipped = 0;
+            let bits = temp_c.to_bits();
+            if self.have_last && bits == self.last_temp_bits {
+                self.repeats = self.repeats.saturating_add(1);
+            } else {
+                self.repeats = 0;
+            }
+            self.last_temp_bits = bits;
+            self.have_last = true;
+            if self.is_stuck() {
+                status |= Status::TEMP_STUCK;
+            }
             let est = self.rate.update(temp_c);
             if est.warming_up {
                 status |= Status::WARMING_UP;
@@ -244,9 +309,7 @@ impl<'a, const D: usize> Compensator<'a, D> {
             status |= Status::TEMP_FAULT;
             self.skipped = self.skipped.saturating_add(1);
             if self.skipped >= self.limits.max_skipped {
-                self.rate.reset();
-                self.bank.skip(&self.rate.estimate());
-                self.bank.reset();
+                self.restart_estimator();
             } else {
                 let est = self.rate.skip();
                 self.bank.skip(&est);
@@ -354,6 +417,61 @@ mod tests {
         let out = c.update(50.0, -7.0);
         assert!(!out.status.contains(Status::TEMP_FAULT));
         assert!(out.status.contains(Status::WARMING_UP));
+    }
+
+    /// A temperature frozen at one code is flagged once it has repeated `stuck_samples` times,
+    /// the model keeps compensating at it, and a jump away from it restarts the estimator;
+    /// a hold one sample shorter is never flagged, and a hold that ends by one code moving is
+    /// absorbed without a restart.
+    #[test]
+    fn stuck_temperature_is_flagged_and_recovers() {
+        let n = SensorLimits::DEFAULT.stuck_samples as usize;
+        let mut c = comp();
+        let mut out = c.update(30.0, -7.0);
+        for _ in 0..n - 1 {
+            out = c.update(30.0, -7.0);
+            assert!(!out.status.contains(Status::TEMP_STUCK));
+        }
+        // n readings so far (n - 1 repeats); the end of the hold by one code is no fault.
+        let want = TABLE.as_model().predict_dph(&[30.0, 0.0]) - TABLE.spec.reference_dph;
+        assert!((out.correction_dph - want).abs() < 1e-6);
+        let moved = c.update(30.01, -7.0);
+        assert!(moved.status.is_ok(), "{:?}", moved.status);
+
+        let mut c = comp();
+        for _ in 0..=n {
+            out = c.update(30.0, -7.0);
+        }
+        assert!(out.status.contains(Status::TEMP_STUCK) && out.status.is_fault());
+        assert!(!out.status.contains(Status::TEMP_FAULT));
+        // Still compensated, at the held reading.
+        assert!((out.correction_dph - want).abs() < 1e-6);
+        assert_eq!(out.rate_dph, -7.0 - out.correction_dph);
+        // The sensor comes back 12 °C away: no fault, a restart (warm-up), no stuck flag.
+        let back = c.update(42.0, -7.0);
+        assert!(!back.status.is_fault(), "{:?}", back.status);
+        assert!(back.status.contains(Status::WARMING_UP));
+        let mut est = RateEstimator::new(TABLE.spec.rate_filter);
+        let e = est.update(42.0);
+        assert_eq!(c.features(42.0, &e), [42.0, e.rate_c_per_s]);
+        // A NaN while stuck is a temperature fault like any other and does not clear the flag
+        // of the repeats counted so far.
+        let mut c = comp();
+        for _ in 0..=n {
+            c.update(30.0, -7.0);
+        }
+        assert!(c.update(f32::NAN, -7.0).status.contains(Status::TEMP_FAULT));
+        assert!(c.update(30.0, -7.0).status.contains(Status::TEMP_STUCK));
+        // Disabled with 0.
+        let limits = SensorLimits {
+            stuck_samples: 0,
+            ..SensorLimits::DEFAULT
+        };
+        let mut c = Compensator::new(TABLE.as_model(), limits);
+        for _ in 0..2 * n {
+            out = c.update(30.0, -7.0);
+        }
+        assert!(out.status.is_ok());
     }
 
     #[test]

@@ -232,6 +232,17 @@ fn main() -> ! {
         let (record, t) = timed(|| ctl.step());
         cost.add(t);
         out.record(&record);
+        let onset = ctl.fault_onset();
+        if !onset.is_ok() {
+            defmt::warn!(
+                "sample {=u32}: fault {=u8:#04x} set (temperature {=f32} °C, rate {=f32} °/h; status {=u8:#04x})",
+                record.index,
+                onset.0,
+                record.temp_c,
+                record.gyro_dph,
+                record.out.status.0
+            );
+        }
 
         let s = model.spec;
         let t_c = record.temp_c;
@@ -289,7 +300,7 @@ fn main() -> ! {
 
     let s = ctl.summary();
     defmt::info!(
-        "summary: samples={=u32} ok={=u32} {=str}={=u32} {=str}={=u32} {=str}={=u32} {=str}={=u32} {=str}={=u32} temp_sensor_errors={=u32} rate_sensor_errors={=u32}",
+        "summary: samples={=u32} ok={=u32} {=str}={=u32} {=str}={=u32} {=str}={=u32} {=str}={=u32} {=str}={=u32} {=str}={=u32} temp_sensor_errors={=u32} rate_sensor_errors={=u32}",
         s.samples,
         s.ok,
         STATUS_BITS[0].1,
@@ -302,6 +313,8 @@ fn main() -> ! {
         s.per_bit[3],
         STATUS_BITS[4].1,
         s.per_bit[4],
+        STATUS_BITS[5].1,
+        s.per_bit[5],
         s.temp_sensor_errors,
         s.rate_sensor_errors
     );

@@ -4,7 +4,7 @@
 //! (hold the last good rate, pass the raw rate through) apply to a dead sensor exactly as to an
 //! implausible reading; the loop only counts the driver errors.
 
-use compensator_core::{Compensated, Compensator, ModelTable, SensorLimits};
+use compensator_core::{Compensated, Compensator, ModelTable, SensorLimits, Status};
 use embedded_hal::delay::DelayNs;
 
 use crate::sensor::{ErrorKind, RateSensor, SensorError, TemperatureSensor};
@@ -34,6 +34,7 @@ pub struct ControlLoop<'m, T, R, const D: usize> {
     rate: R,
     index: u32,
     summary: Summary,
+    onset: Status,
 }
 
 impl<'m, T: TemperatureSensor, R: RateSensor, const D: usize> ControlLoop<'m, T, R, D> {
@@ -51,6 +52,7 @@ impl<'m, T: TemperatureSensor, R: RateSensor, const D: usize> ControlLoop<'m, T,
             rate,
             index: 0,
             summary: Summary::default(),
+            onset: Status::OK,
         }
     }
 
@@ -89,8 +91,14 @@ impl<'m, T: TemperatureSensor, R: RateSensor, const D: usize> ControlLoop<'m, T,
             rate_error,
         };
         self.index = self.index.wrapping_add(1);
-        self.summary.add(&record);
+        self.onset = self.summary.add(&record);
         record
+    }
+
+    /// The fault bits the last [`ControlLoop::step`] set that the one before did not: what the
+    /// board logs, once per fault episode.
+    pub fn fault_onset(&self) -> Status {
+        self.onset
     }
 
     /// Runs `samples` periods, waiting `period_ms` after each: pacing for a board without a

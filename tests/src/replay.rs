@@ -130,16 +130,22 @@ pub enum Injected {
     TempOutOfRange,
     /// Temperature reads 30 °C above the true value for one sample.
     TempSpike,
+    /// Temperature repeats the reading before the fault (a frozen sensor or ADC), then jumps
+    /// back to the true value.
+    StuckTemp,
 }
 
 /// Where the scenario's faults are: (first sample, number of samples, fault).
-pub const SCENARIO_FAULTS: [(usize, usize, Injected); 5] = [
+pub const SCENARIO_FAULTS: [(usize, usize, Injected); 6] = [
     (1000, 1, Injected::NanTemp),
     (2000, 1, Injected::NanRate),
     (3000, 1, Injected::TempOutOfRange),
     (4000, 1, Injected::TempSpike),
     // Longer than the compensator's 30-sample skip limit: forces an estimator restart.
     (6000, 40, Injected::NanTemp),
+    // On the down-ramp, frozen at 33.35 °C for 1300 s (longer than the 1200-repeat stuck
+    // limit), back at 11.67 °C.
+    (6400, 1300, Injected::StuckTemp),
 ];
 
 /// The thermal profile, °C, at second `k`: 600 s hold at 10 °C, ramp to 65 °C at 1 °C/min,
@@ -185,8 +191,10 @@ pub fn scenario() -> Vec<ReplaySample> {
         })
         .collect();
     for (first, len, fault) in SCENARIO_FAULTS {
+        let before = out[first - 1].temp_c;
         for s in &mut out[first..first + len] {
             match fault {
+                Injected::StuckTemp => s.temp_c = before,
                 Injected::NanTemp => s.temp_c = f32::NAN,
                 Injected::NanRate => s.rate_dph = f32::NAN,
                 Injected::TempOutOfRange => s.temp_c = 150.0,
@@ -252,5 +260,7 @@ mod tests {
             / (SCENARIO_LEN - 1) as f64;
         assert!((mean - SCENARIO_BIAS_DPH).abs() < 1e-3, "mean rate {mean}");
         assert!(s[1000].temp_c.is_nan() && s[2000].rate_dph.is_nan() && s[3000].temp_c == 150.0);
+        assert!(s[6399..7700].iter().all(|x| x.temp_c == 33.35));
+        assert!((s[7700].temp_c - 11.67).abs() < 1e-5);
     }
 }

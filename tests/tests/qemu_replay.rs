@@ -23,12 +23,13 @@ mod model_table;
 const QEMU_TIMEOUT: Duration = Duration::from_secs(120);
 
 /// Status bits and their names in the image's summary line.
-const BITS: [(Status, &str); 5] = [
+const BITS: [(Status, &str); 6] = [
     (Status::WARMING_UP, "warming_up"),
     (Status::OUT_OF_RANGE, "out_of_range"),
     (Status::TEMP_FAULT, "temp_fault"),
     (Status::GYRO_FAULT, "gyro_fault"),
     (Status::TABLE_FAULT, "table_fault"),
+    (Status::TEMP_STUCK, "temp_stuck"),
 ];
 
 #[test]
@@ -68,7 +69,7 @@ fn qemu_replay_matches_host_bit_for_bit() {
     // The host reference over the same inputs and the same table file.
     let mut host = Compensator::new(model_table::MODEL.as_model(), SensorLimits::DEFAULT);
     assert!(host.table_ok(), "the model table must validate");
-    let mut counts = [0u64; 5];
+    let mut counts = [0u64; 6];
     let mut ok = 0u64;
     let mut mismatches = Vec::new();
     for (k, (s, r)) in input.iter().zip(&run.records).enumerate() {
@@ -114,19 +115,41 @@ fn qemu_replay_matches_host_bit_for_bit() {
     // after a one-sample fault the next sample is compensated again without a warm-up, after
     // the 40-sample dropout the estimator re-warms (WARMING_UP) and then compensates again.
     let status = |k: usize| Status(run.records[k].status);
+    let stuck_after = SensorLimits::DEFAULT.stuck_samples as usize;
     for (first, len, fault) in replay::SCENARIO_FAULTS {
-        let want = match fault {
-            replay::Injected::NanRate => Status::GYRO_FAULT,
-            _ => Status::TEMP_FAULT,
-        };
-        for k in first..first + len {
-            assert!(
-                status(k).contains(want),
-                "{fault:?} at sample {k}: status {:#04x}",
-                status(k).0
-            );
-        }
         let after = first + len;
+        if fault == replay::Injected::StuckTemp {
+            // The frozen reading starts one sample before `first` (the last true reading);
+            // flagged from its `stuck_after`-th repeat, compensated throughout, and the jump
+            // back restarts the estimator (a warm-up, no fault).
+            for k in first..after {
+                let flagged = k - (first - 1) >= stuck_after;
+                assert_eq!(
+                    status(k).contains(Status::TEMP_STUCK),
+                    flagged,
+                    "stuck at sample {k}: status {:#04x}",
+                    status(k).0
+                );
+                assert!(!status(k).contains(Status::TEMP_FAULT), "sample {k}");
+            }
+            assert!(
+                status(after).contains(Status::WARMING_UP) && !status(after).is_fault(),
+                "stuck: at sample {after}: {:#04x}",
+                status(after).0
+            );
+        } else {
+            let want = match fault {
+                replay::Injected::NanRate => Status::GYRO_FAULT,
+                _ => Status::TEMP_FAULT,
+            };
+            for k in first..after {
+                assert!(
+                    status(k).contains(want),
+                    "{fault:?} at sample {k}: status {:#04x}",
+                    status(k).0
+                );
+            }
+        }
         if len == 1 {
             assert!(
                 !status(after).is_fault() && !status(after).contains(Status::WARMING_UP),
@@ -139,9 +162,24 @@ fn qemu_replay_matches_host_bit_for_bit() {
             // scenario ends below the table's trained range, and that is flagged, clamped).
             let back = (after..input.len())
                 .find(|&k| !status(k).is_fault() && !status(k).contains(Status::WARMING_UP))
-                .expect("recovers after the dropout");
+                .expect("recovers after the fault");
             assert!(back - after <= 300, "re-warm took {} samples", back - after);
         }
+    }
+    // Every fault episode was logged once, at its first sample, as a defmt warning.
+    let warnings: Vec<&String> = run.log.iter().filter(|l| l.contains("fault 0x")).collect();
+    for (first, _, fault) in replay::SCENARIO_FAULTS {
+        let at = if fault == replay::Injected::StuckTemp {
+            first - 1 + stuck_after
+        } else {
+            first
+        };
+        assert!(
+            warnings
+                .iter()
+                .any(|l| l.contains(&format!("sample {at}: fault"))),
+            "no warning for {fault:?} at {at}: {warnings:#?}"
+        );
     }
 
     // The image's own summary agrees with the host's counts.
