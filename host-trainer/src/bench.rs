@@ -6,7 +6,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use crate::lssvm::dataset::{self, RecordingSelection};
-use crate::lssvm::solve::solve_with_loo;
+use crate::lssvm::solve::{solve_f64, solve_reporting, solve_with_loo, SolvePath};
 use crate::lssvm::sparse::{train_reduced, Reduction};
 use crate::lssvm::{kernel_matrix, solve, Lssvm};
 use crate::model::{ModelFile, Provenance};
@@ -171,8 +171,15 @@ pub struct ExactTimings {
     pub n: usize,
     /// Kernel matrix alone.
     pub kernel_s: f64,
-    /// Eq. (9): kernel matrix, Cholesky, two solves.
+    /// Eq. (9): kernel matrix, Cholesky, two solves ([`solve`]: mixed precision from
+    /// `MIXED_MIN_N` samples on).
     pub solve_s: f64,
+    /// Eq. (9) by the f64 Cholesky alone.
+    pub solve_f64_s: f64,
+    /// How [`solve`] solved it.
+    pub path: SolvePath,
+    /// Largest |a_i − a_i(f64)| / max |a(f64)| and |b − b(f64)| / max |a(f64)|.
+    pub rel_diff_vs_f64: f64,
     /// Eq. (9) plus closed-form LOO residuals.
     pub loo_s: f64,
     /// Predictions per second of the trained n-vector model (f64, one thread).
@@ -194,6 +201,19 @@ pub fn time_exact(
     let solve_s = median_s(reps, || {
         std::hint::black_box(solve(z, y, sigma, c).ok());
     });
+    let solve_f64_s = median_s(reps, || {
+        std::hint::black_box(solve_f64(z, y, sigma, c).ok());
+    });
+    let (mixed, path) = solve_reporting(z, y, sigma, c)?;
+    let exact = solve_f64(z, y, sigma, c)?;
+    let scale = exact.alpha.iter().fold(0.0f64, |m, a| m.max(a.abs()));
+    let rel_diff_vs_f64 = mixed
+        .alpha
+        .iter()
+        .zip(&exact.alpha)
+        .map(|(a, b)| (a - b).abs())
+        .fold((mixed.bias - exact.bias).abs(), f64::max)
+        / scale;
     let loo_s = median_s(reps, || {
         std::hint::black_box(solve_with_loo(z, y, sigma, c).ok());
     });
@@ -223,6 +243,9 @@ pub fn time_exact(
         n: z.len(),
         kernel_s,
         solve_s,
+        solve_f64_s,
+        path,
+        rel_diff_vs_f64,
         loo_s,
         predict_per_s: queries as f64 / predict_s,
     })

@@ -97,20 +97,28 @@ pub fn run_lssvm(a: &BenchLssvmArgs) -> anyhow::Result<()> {
     let (sigma, c) = (pipeline::SIGMA, pipeline::C);
     let mut json = Vec::new();
     println!(
-        "{:>6} {:>11} {:>11} {:>11} {:>14}   (faer {:?}, σ = {sigma}, c = {c}, median of {})",
-        "n", "kernel s", "solve s", "solve+LOO s", "predict /s", a.par, a.reps
+        "{:>6} {:>11} {:>11} {:>11} {:>11} {:>14}  {:>9}  path   (faer {:?}, σ = {sigma}, c = {c}, median of {})",
+        "n", "kernel s", "solve s", "f64 solve s", "solve+LOO s", "predict /s", "vs f64", a.par, a.reps
     );
     for &n in &a.sizes {
         let (z, y) = bench::bench_data(n)?;
         bench::write_bench_csv(&a.data_dir.join(format!("lssvm_{n}.csv")), &z, &y)?;
         let t = bench::time_exact(&z, &y, sigma, c, a.reps)?;
         println!(
-            "{:>6} {:>11.4} {:>11.4} {:>11.4} {:>14.3e}",
-            n, t.kernel_s, t.solve_s, t.loo_s, t.predict_per_s
+            "{:>6} {:>11.4} {:>11.4} {:>11.4} {:>11.4} {:>14.3e}  {:>9.1e}  {:?}",
+            n,
+            t.kernel_s,
+            t.solve_s,
+            t.solve_f64_s,
+            t.loo_s,
+            t.predict_per_s,
+            t.rel_diff_vs_f64,
+            t.path
         );
         json.push(serde_json::json!({
-            "n": n, "kernel_s": t.kernel_s, "solve_s": t.solve_s, "loo_s": t.loo_s,
-            "predict_per_s": t.predict_per_s,
+            "n": n, "kernel_s": t.kernel_s, "solve_s": t.solve_s, "solve_f64_s": t.solve_f64_s,
+            "loo_s": t.loo_s, "predict_per_s": t.predict_per_s,
+            "rel_diff_vs_f64": t.rel_diff_vs_f64, "path": format!("{:?}", t.path),
         }));
     }
     let name = match a.par {

@@ -3,12 +3,15 @@
 //! * [`scaling`]: per-feature standardisation fitted on the training inputs.
 //! * [`solve`]: the kernel matrix and the solution of Eq. (9) by Cholesky, a dense reference
 //!   solve, and closed-form leave-one-out residuals.
+//! * [`mixed`]: the mixed-precision solve [`solve`] takes for large n (f32 Cholesky as the
+//!   preconditioner of f64 conjugate gradients).
 //! * [`tune`]: σ and c by closed-form leave-one-out or blocked / group cross-validation.
 //!
 //! [`Lssvm`] ties them together: train on raw features, predict on raw features.
 
 pub mod dataset;
 pub mod fixed_size;
+pub mod mixed;
 pub mod prune;
 pub mod scaling;
 pub mod solve;

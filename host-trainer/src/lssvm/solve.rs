@@ -9,7 +9,10 @@
 //!
 //! is solved by one Cholesky factorisation of the symmetric positive definite H and two
 //! solves, η = H⁻¹y and ν = H⁻¹1: b = 1ᵀη / 1ᵀν, a = η − bν (block elimination of the first
-//! row). Cost: n³/3 flops for the factorisation, n² per solve.
+//! row). Cost: n³/3 flops for the factorisation, n² per solve. From [`MIXED_MIN_N`] samples
+//! on, [`solve`] factorises in f32 and solves by preconditioned CG in f64 ([`super::mixed`]),
+//! to the backward error of the f64 solve; [`solve_f64`] is the plain f64 path. The LOO
+//! residuals need diag(H⁻¹) and stay on the f64 factor.
 //!
 //! Leave-one-out residuals follow in closed form (Cawley & Talbot 2004, after Allen's PRESS):
 //! with A the full (n+1)×(n+1) matrix above, y_i − f₋ᵢ(x_i) = a_i / (A⁻¹)_{i+1,i+1}, and the
@@ -18,7 +21,7 @@
 use faer::prelude::*;
 use faer::Side;
 
-use super::LssvmError;
+use super::{mixed, LssvmError};
 
 /// Solution of Eq. (9): coefficients a_i and bias b, in the targets' unit (°/h).
 #[derive(Clone, Debug, PartialEq)]
@@ -104,27 +107,6 @@ pub fn kernel_matrix(z: &[Vec<f64>], sigma: f64) -> Mat<f64> {
     k
 }
 
-/// H = K + I/c, lower triangle only: the Cholesky factorisation (`Side::Lower`) reads
-/// nothing else, and filling column by column writes contiguous memory (the matrix is
-/// column-major), where mirroring each entry would stride across columns.
-fn h_matrix(z: &[Vec<f64>], sigma: f64, c: f64) -> Mat<f64> {
-    let n = z.len();
-    let dim = z.first().map_or(0, Vec::len);
-    let flat: Vec<f64> = z.iter().flat_map(|r| r.iter().copied()).collect();
-    let inv = 1.0 / (2.0 * sigma * sigma);
-    Mat::<f64>::from_fn(n, n, |i, j| {
-        if i < j {
-            return 0.0;
-        }
-        if i == j {
-            return 1.0 + 1.0 / c;
-        }
-        let (zi, zj) = (&flat[i * dim..(i + 1) * dim], &flat[j * dim..(j + 1) * dim]);
-        let d2: f64 = zi.iter().zip(zj).map(|(a, b)| (a - b) * (a - b)).sum();
-        (-d2 * inv).exp()
-    })
-}
-
 /// The Cholesky factor of H and the two solves of the block elimination.
 struct Factorised {
     llt: faer::linalg::solvers::Llt<f64>,
@@ -135,36 +117,102 @@ struct Factorised {
     solution: Solution,
 }
 
-fn factorise(z: &[Vec<f64>], y: &[f64], sigma: f64, c: f64) -> Result<Factorised, LssvmError> {
-    validate(z, y, sigma, c)?;
-    let n = z.len();
-    let h = h_matrix(z, sigma, c);
-    let llt = h.llt(Side::Lower).map_err(|e| match e {
-        faer::linalg::solvers::LltError::NonPositivePivot { index } => {
-            LssvmError::NotPositiveDefinite { pivot: index }
-        }
-    })?;
-    let mut rhs = Mat::<f64>::from_fn(n, 2, |i, j| if j == 0 { y[i] } else { 1.0 });
-    llt.solve_in_place(&mut rhs);
-    let eta: Vec<f64> = (0..n).map(|i| rhs[(i, 0)]).collect();
-    let nu: Vec<f64> = (0..n).map(|i| rhs[(i, 1)]).collect();
+/// The f64 Cholesky factor of H from its lower triangle ([`mixed::h_lower`]).
+fn llt_f64(h: &[f64], n: usize) -> Result<faer::linalg::solvers::Llt<f64>, LssvmError> {
+    MatRef::from_column_major_slice(h, n, n)
+        .llt(Side::Lower)
+        .map_err(|e| match e {
+            faer::linalg::solvers::LltError::NonPositivePivot { index } => {
+                LssvmError::NotPositiveDefinite { pivot: index }
+            }
+        })
+}
+
+/// Block elimination of Eq. (9)'s first row from the two solves `x` = [η ν] = H⁻¹[y 1]:
+/// b = 1ᵀη / 1ᵀν, a = η − bν; returns the solution, ν and 1ᵀν.
+fn eliminate(x: MatRef<'_, f64>) -> Result<(Solution, Vec<f64>, f64), LssvmError> {
+    let n = x.nrows();
+    let eta: Vec<f64> = (0..n).map(|i| x[(i, 0)]).collect();
+    let nu: Vec<f64> = (0..n).map(|i| x[(i, 1)]).collect();
     let s: f64 = nu.iter().sum();
     let bias = eta.iter().sum::<f64>() / s;
     let alpha: Vec<f64> = eta.iter().zip(&nu).map(|(e, v)| e - bias * v).collect();
     if !(bias.is_finite() && s.is_finite() && s != 0.0 && alpha.iter().all(|a| a.is_finite())) {
         return Err(LssvmError::Singular);
     }
+    Ok((Solution { alpha, bias }, nu, s))
+}
+
+fn rhs_y1(y: &[f64]) -> Mat<f64> {
+    Mat::<f64>::from_fn(y.len(), 2, |i, j| if j == 0 { y[i] } else { 1.0 })
+}
+
+fn factorise(z: &[Vec<f64>], y: &[f64], sigma: f64, c: f64) -> Result<Factorised, LssvmError> {
+    validate(z, y, sigma, c)?;
+    let llt = llt_f64(&mixed::h_lower(z, sigma, c), z.len())?;
+    let mut rhs = rhs_y1(y);
+    llt.solve_in_place(&mut rhs);
+    let (solution, nu, s) = eliminate(rhs.as_ref())?;
     Ok(Factorised {
         llt,
         nu,
         s,
-        solution: Solution { alpha, bias },
+        solution,
     })
 }
 
-/// Solves Eq. (9) for standardised inputs `z` (rows) and targets `y` by Cholesky of K + I/c.
-pub fn solve(z: &[Vec<f64>], y: &[f64], sigma: f64, c: f64) -> Result<Solution, LssvmError> {
+/// Eq. (9) by the f64 Cholesky alone, whatever n (the reference the mixed path is held to).
+pub fn solve_f64(z: &[Vec<f64>], y: &[f64], sigma: f64, c: f64) -> Result<Solution, LssvmError> {
     factorise(z, y, sigma, c).map(|f| f.solution)
+}
+
+/// From this many samples on, [`solve`] takes the mixed-precision path ([`mixed`]); below,
+/// the f64 Cholesky costs little and the results stay those of the plain f64 solve.
+pub const MIXED_MIN_N: usize = 1000;
+
+/// How [`solve_reporting`] solved the system.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SolvePath {
+    /// f64 Cholesky (n below [`MIXED_MIN_N`]).
+    F64,
+    /// f32 Cholesky + f64 CG, with its statistics.
+    Mixed(mixed::MixedStats),
+    /// The mixed path gave up (why), then f64 Cholesky.
+    Fallback(mixed::GiveUp),
+}
+
+/// [`solve`], also saying which path solved it.
+pub fn solve_reporting(
+    z: &[Vec<f64>],
+    y: &[f64],
+    sigma: f64,
+    c: f64,
+) -> Result<(Solution, SolvePath), LssvmError> {
+    validate(z, y, sigma, c)?;
+    let n = z.len();
+    if n < MIXED_MIN_N {
+        return factorise(z, y, sigma, c).map(|f| (f.solution, SolvePath::F64));
+    }
+    let (h, h32) = mixed::h_lower_pair(z, sigma, c);
+    let rhs = rhs_y1(y);
+    let why = match mixed::solve(&h, h32, rhs.as_ref()) {
+        Ok((x, stats)) => {
+            return eliminate(x.as_ref()).map(|(sol, _, _)| (sol, SolvePath::Mixed(stats)))
+        }
+        Err(why) => why,
+    };
+    let llt = llt_f64(&h, n)?;
+    drop(h);
+    let mut rhs = rhs;
+    llt.solve_in_place(&mut rhs);
+    eliminate(rhs.as_ref()).map(|(sol, _, _)| (sol, SolvePath::Fallback(why)))
+}
+
+/// Solves Eq. (9) for standardised inputs `z` (rows) and targets `y` by Cholesky of K + I/c:
+/// in f64 below [`MIXED_MIN_N`] samples, from there on in mixed precision to the same backward
+/// error (falling back to f64 where that does not converge).
+pub fn solve(z: &[Vec<f64>], y: &[f64], sigma: f64, c: f64) -> Result<Solution, LssvmError> {
+    solve_reporting(z, y, sigma, c).map(|(s, _)| s)
 }
 
 /// A partially linear solution: Eq. (10)'s a_i and b, and the coefficients β of the linear
@@ -205,12 +253,7 @@ pub fn solve_partially_linear(
             feature: Some("linear column".into()),
         });
     }
-    let h = h_matrix(z, sigma, c);
-    let llt = h.llt(Side::Lower).map_err(|e| match e {
-        faer::linalg::solvers::LltError::NonPositivePivot { index } => {
-            LssvmError::NotPositiveDefinite { pivot: index }
-        }
-    })?;
+    let llt = llt_f64(&mixed::h_lower(z, sigma, c), n)?;
     let p = lin.len();
     // Columns: y, 1, L₁ … L_p.
     let mut rhs = Mat::<f64>::from_fn(n, p + 2, |i, j| match j {
