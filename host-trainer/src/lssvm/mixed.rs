@@ -243,7 +243,9 @@ pub fn solve(
     for j in 0..m {
         let xm = col_max(&x, j);
         let rm = col_max(&r, j);
-        if !(rm <= 4.0 * tol * xm) {
+        // `col_max` would skip a NaN (f64::max ignores it): check finiteness on its own.
+        let finite = (0..n).all(|i| x[(i, j)].is_finite() && r[(i, j)].is_finite());
+        if !finite || rm > 4.0 * tol * xm {
             return Err(GiveUp::NoConvergence);
         }
         backward_error = backward_error.max(rm / (h_norm * xm));
