@@ -41,7 +41,7 @@ use crate::lssvm::dataset::{self, RecordingSelection};
 use crate::lssvm::sparse::train_fixed_size_partially_linear;
 use crate::lssvm::tune::{tune_partially_linear, CvPoint, Grid, Tuned, Validation};
 use crate::lssvm::Lssvm;
-use crate::metrics::stability::bias_stability_dph;
+use crate::metrics::stability::bias_stability_gapless_dph;
 use crate::model::{ModelFile, Provenance};
 use crate::physics::Term;
 use crate::pipeline;
@@ -383,7 +383,9 @@ pub fn train_and_score(
             rec.rate_dph[k] - model.correction_dph(&x)
         })
         .collect();
-    let test_b100_dph = bias_stability_dph(&host, pipeline::TRAIN_BLOCK).unwrap_or(f64::NAN);
+    let test_b100_dph =
+        bias_stability_gapless_dph(&rec.time_s[split..], &host, pipeline::TRAIN_BLOCK)
+            .unwrap_or(f64::NAN);
     let board_b100_dph = match feats.len() {
         2 => board_b100::<2>(rec, split, &model)?,
         3 => board_b100::<3>(rec, split, &model)?,
@@ -422,7 +424,11 @@ fn board_b100<const D: usize>(
             )
         })
         .collect();
-    Ok(bias_stability_dph(&out[split..], pipeline::TRAIN_BLOCK))
+    Ok(bias_stability_gapless_dph(
+        &rec.time_s[split..],
+        &out[split..],
+        pipeline::TRAIN_BLOCK,
+    ))
 }
 
 /// The end of the first temperature cycle, s: the paper's training span.

@@ -3,5 +3,7 @@
 pub mod allan;
 pub mod stability;
 
-pub use stability::{bias_stability_dph, block_means, max_abs, rms};
+pub use stability::{
+    bias_stability_dph, bias_stability_gapless_dph, block_means, gapless_block_means, max_abs, rms,
+};
 pub mod compare;

@@ -16,7 +16,48 @@ pub fn block_means(x: &[f64], window: usize) -> Vec<f64> {
 /// consecutive non-overlapping `window`-sample means. For 1 Hz data, `window = 100` gives
 /// the paper's 100 s bias stability. `None` with fewer than two full windows.
 pub fn bias_stability_dph(rate: &[f64], window: usize) -> Option<f64> {
-    let means = block_means(rate, window);
+    std_of(&block_means(rate, window))
+}
+
+/// Means of windows of `window` consecutive samples that hold no gap, for a record sampled at
+/// times `time_s`: the record is cut at every gap (a step longer than 1.5 × the median step,
+/// the reader's own gap rule), each piece is windowed from its start, and each piece's
+/// trailing partial window is dropped. Without gaps this is [`block_means`]. A window never
+/// spans a gap, so a "100 s mean" is always 100 s of data, not 100 samples spread over
+/// hours. `time_s` and `x` must have equal lengths (else nothing is returned).
+pub fn gapless_block_means(time_s: &[f64], x: &[f64], window: usize) -> Vec<f64> {
+    if window == 0 || time_s.len() != x.len() || x.is_empty() {
+        return Vec::new();
+    }
+    let mut steps: Vec<f64> = time_s.windows(2).map(|w| w[1] - w[0]).collect();
+    if steps.is_empty() {
+        return block_means(x, window);
+    }
+    steps.sort_by(f64::total_cmp);
+    let limit = 1.5 * steps[steps.len() / 2];
+    let mut out = Vec::new();
+    let mut start = 0;
+    for k in 1..=x.len() {
+        // A NaN step (a NaN time stamp) is no `Less`/`Equal`: it cuts too.
+        let within = (time_s.get(k).copied().unwrap_or(f64::NAN) - time_s[k - 1])
+            .partial_cmp(&limit)
+            .is_some_and(|o| o.is_le());
+        if k == x.len() || !within {
+            out.extend(block_means(&x[start..k], window));
+            start = k;
+        }
+    }
+    out
+}
+
+/// [`bias_stability_dph`] of a time-stamped record under the gap rule of
+/// [`gapless_block_means`]; `None` with fewer than two gap-free windows.
+pub fn bias_stability_gapless_dph(time_s: &[f64], rate: &[f64], window: usize) -> Option<f64> {
+    std_of(&gapless_block_means(time_s, rate, window))
+}
+
+/// Sample standard deviation (n − 1); `None` below two values.
+fn std_of(means: &[f64]) -> Option<f64> {
     if means.len() < 2 {
         return None;
     }
@@ -74,6 +115,32 @@ mod tests {
             .collect();
         let b = bias_stability_dph(&x, 100).unwrap();
         assert!((b / 0.1 - 1.0).abs() < 0.05, "{b}");
+    }
+
+    /// Hand-computed: 1 s steps with a gap after the 5th sample; windows of 2 → pieces
+    /// [1,3,2,6,4] and [4,9,5] give means 2, 4 (4 dropped) and 6.5 (5 dropped), where plain
+    /// windows of 2 would pair 4 with 4 across the gap.
+    #[test]
+    fn windows_never_span_a_gap() {
+        let t = [0.0, 1.0, 2.0, 3.0, 4.0, 3600.0, 3601.0, 3602.0];
+        let x = [1.0, 3.0, 2.0, 6.0, 4.0, 4.0, 9.0, 5.0];
+        assert_eq!(gapless_block_means(&t, &x, 2), vec![2.0, 4.0, 6.5]);
+        assert_eq!(block_means(&x, 2), vec![2.0, 4.0, 4.0, 7.0]);
+        // mean 12.5/3; deviations² (−13/6)² + (−1/6)² + (14/6)² = 366/36; / 2 → σ² = 183/36.
+        let s = bias_stability_gapless_dph(&t, &x, 2).unwrap();
+        assert!((s - (183.0f64 / 36.0).sqrt()).abs() < 1e-14, "{s}");
+        // Without gaps it is the plain statistic; mismatched lengths give nothing.
+        let t1: Vec<f64> = (0..8).map(f64::from).collect();
+        assert_eq!(gapless_block_means(&t1, &x, 2), block_means(&x, 2));
+        assert_eq!(
+            bias_stability_gapless_dph(&t1, &x, 2),
+            bias_stability_dph(&x, 2)
+        );
+        assert!(gapless_block_means(&t1[..7], &x, 2).is_empty());
+        // A NaN time stamp cuts on both sides, like a gap: [1,3,2,6] | [4] | [4,9,5].
+        let mut tn = t1.clone();
+        tn[4] = f64::NAN;
+        assert_eq!(gapless_block_means(&tn, &x, 2), vec![2.0, 4.0, 6.5]);
     }
 
     #[test]

@@ -30,7 +30,7 @@ use crate::metrics::allan::{
     rate_random_walk_dph_per_rt_h, AdevPoint,
 };
 use crate::metrics::compare::improvement_factor;
-use crate::metrics::stability::{bias_stability_dph, rms};
+use crate::metrics::stability::{bias_stability_gapless_dph, rms};
 use crate::pipeline::{self, DynamicRun};
 use crate::sparse_eval::{self, Recipe};
 
@@ -245,7 +245,8 @@ pub fn reproduce(opts: &DynamicOptions, progress: &ProgressBar) -> anyhow::Resul
         .collect();
     let lssvm_train_rms = rms(&lssvm_res);
 
-    let raw_b100 = bias_stability_dph(&rec.rate_dph[split..], opts.window)
+    let t_test = &rec.time_s[split..];
+    let raw_b100 = bias_stability_gapless_dph(t_test, &rec.rate_dph[split..], opts.window)
         .ok_or_else(|| anyhow::anyhow!("held-out part shorter than two windows"))?;
     let score = |name: &str,
                  train_rms_dph: Option<f64>,
@@ -253,7 +254,7 @@ pub fn reproduce(opts: &DynamicOptions, progress: &ProgressBar) -> anyhow::Resul
                  paper_b100_dph: Option<f64>|
      -> ModelScore {
         let test = &compensated_dph[split..];
-        let b = bias_stability_dph(test, opts.window).unwrap_or(f64::NAN);
+        let b = bias_stability_gapless_dph(t_test, test, opts.window).unwrap_or(f64::NAN);
         // Model error vs truth: compensated − noise = truth − model; noise = rate − truth.
         let err: Vec<f64> = (split..n)
             .map(|k| compensated_dph[k] - (rec.rate_dph[k] - run.true_bias_dph[k]))
