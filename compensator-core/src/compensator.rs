@@ -11,15 +11,17 @@
 //!    absorbed (the estimator extrapolates, see [`crate::RateEstimator::skip`]), the raw rate
 //!    passes through uncompensated, `TEMP_FAULT`. After `max_skipped` consecutive faulty
 //!    samples the estimator is reset and re-warms on the next good sample.
-//! 4. Temperature bit-identical to the previous `stuck_samples` accepted readings (a frozen
-//!    sensor or ADC): `TEMP_STUCK`. The model keeps compensating at the held reading (the best
-//!    estimate left, and exactly right if the body really is steady; the estimator's dT/dt
-//!    decays to 0). A steady chamber hold can read one code that long on a coarse sensor: the
-//!    flag is then a harmless false alarm, since the output is the same as without it. When the
-//!    reading moves again by more than `max_temp_step_c` from the held value, the frozen span
-//!    is discarded: the estimator restarts at the new reading (`WARMING_UP`) instead of treating
-//!    the jump as a fault or absorbing it as a ramp; a move within `max_temp_step_c` (the end of
-//!    a real hold) is absorbed as usual.
+//! 4. Temperature bit-identical to the previous `stuck_samples` accepted readings although,
+//!    when that reading appeared, the warmed-up estimator had the body moving fast enough to
+//!    change by `stuck_min_change_c` over that many samples (a sensor or ADC frozen on a
+//!    ramp; a body in a chamber cannot stop dead within minutes): `TEMP_STUCK`. A steady hold,
+//!    which can read one code for hours on a quantised sensor, is never flagged; a sensor that
+//!    freezes during a hold cannot be told from the hold and costs nothing until the body
+//!    moves. While flagged the model keeps compensating at the held reading (the best estimate
+//!    left; the estimator's dT/dt decays to 0). When the reading moves again by more than
+//!    `max_temp_step_c` from the held value, the frozen span is discarded: the estimator
+//!    restarts at the new reading (`WARMING_UP`) instead of treating the jump as a fault or
+//!    absorbing it as a ramp; a smaller move is absorbed as usual.
 //! 5. A feature outside the range seen in training: the feature is clamped to that range, the
 //!    clamped model compensates, `OUT_OF_RANGE`.
 //! 6. Fewer than `warmup_samples` good samples since (re)start: the model compensates with the
@@ -100,8 +102,11 @@ pub struct SensorLimits {
     /// Consecutive rejected temperature samples after which the estimator restarts.
     pub max_skipped: u32,
     /// Repeats of one bit-identical temperature reading after which it is flagged
-    /// `TEMP_STUCK` (0: never).
+    /// `TEMP_STUCK` (0: never), if the body was moving when it appeared (`stuck_min_change_c`).
     pub stuck_samples: u32,
+    /// Smallest change, °C, that the dT/dt estimated when a reading appeared must predict over
+    /// `stuck_samples` periods for its repeats to count as a frozen sensor.
+    pub stuck_min_change_c: f32,
 }
 
 impl SensorLimits {
@@ -113,9 +118,11 @@ impl SensorLimits {
         max_temp_step_c: 2.0,
         rate_limit_dph: 3.6e6,
         max_skipped: 30,
-        // 20 min: longer than any hold in the shipped scenarios reads one 0.01 °C code, and a
-        // frozen sensor costs at most the model error at the held temperature meanwhile.
-        stuck_samples: 1200,
+        // 5 min without a single code change where the body was moving at ≥ 0.1 °C/min: at
+        // least 0.4 °C of real change even if the chamber stopped at that moment (body time
+        // constants are tens of minutes), 40 codes of a 0.01 °C sensor.
+        stuck_samples: 300,
+        stuck_min_change_c: 0.5,
     };
 }
 
@@ -155,6 +162,9 @@ pub struct Compensator<'a, const D: usize> {
     repeats: u32,
     /// Whether a reading has been accepted since the last restart of the estimator.
     have_last: bool,
+    /// Whether the body was moving fast enough, when `last_temp_bits` appeared, for its
+    /// repeats to mean a frozen sensor (rule 4).
+    stuck_armed: bool,
     /// Whether the table has linear terms (else their sum, exactly 0, is skipped).
     linear: bool,
 }
@@ -187,6 +197,7 @@ impl<'a, const D: usize> Compensator<'a, D> {
             last_temp_bits: 0,
             repeats: 0,
             have_last: false,
+            stuck_armed: false,
             linear: model.spec.linear_dph.iter().any(|b| *b != 0.0),
         }
     }
@@ -223,9 +234,12 @@ impl<'a, const D: usize> Compensator<'a, D> {
         libm::fabsf(temp_c - predicted) <= l.max_temp_step_c * periods
     }
 
-    /// Whether the last accepted temperature reading has repeated `stuck_samples` times.
+    /// Whether the last accepted temperature reading has repeated `stuck_samples` times
+    /// although the body was moving when it appeared.
     fn is_stuck(&self) -> bool {
-        self.limits.stuck_samples > 0 && self.repeats >= self.limits.stuck_samples
+        self.stuck_armed
+            && self.limits.stuck_samples > 0
+            && self.repeats >= self.limits.stuck_samples
     }
 
     /// Forgets the temperature history: the estimator and the recursive features restart and
@@ -236,6 +250,7 @@ impl<'a, const D: usize> Compensator<'a, D> {
         self.bank.reset();
         self.repeats = 0;
         self.have_last = false;
+        self.stuck_armed = false;
     }
 
     /// Processes one 1 Hz sample.
@@ -273,18 +288,22 @@ impl<'a, const D: usize> Compensator<'a, D> {
         }
         let correction = if self.temp_is_plausible(temp_c) {
             self.skipped = 0;
+            let est = self.rate.update(temp_c);
             let bits = temp_c.to_bits();
             if self.have_last && bits == self.last_temp_bits {
                 self.repeats = self.repeats.saturating_add(1);
             } else {
                 self.repeats = 0;
+                let l = &self.limits;
+                let window_s = l.stuck_samples as f32 * self.rate.filter().dt_s;
+                self.stuck_armed = !est.warming_up
+                    && libm::fabsf(est.rate_c_per_s) * window_s >= l.stuck_min_change_c;
             }
             self.last_temp_bits = bits;
             self.have_last = true;
             if self.is_stuck() {
                 status |= Status::TEMP_STUCK;
             }
-            let est = self.rate.update(temp_c);
             if est.warming_up {
                 status |= Status::WARMING_UP;
             }
@@ -419,59 +438,95 @@ mod tests {
         assert!(out.status.contains(Status::WARMING_UP));
     }
 
-    /// A temperature frozen at one code is flagged once it has repeated `stuck_samples` times,
-    /// the model keeps compensating at it, and a jump away from it restarts the estimator;
-    /// a hold one sample shorter is never flagged, and a hold that ends by one code moving is
-    /// absorbed without a restart.
+    /// Warm up on a 0.6 °C/min ramp from 20 °C; returns the compensator and the last reading.
+    fn on_a_ramp() -> (Compensator<'static, 2>, f32) {
+        let mut c = comp();
+        let mut t = 20.0f32;
+        for k in 0..400 {
+            t = 20.0 + 0.01 * k as f32;
+            c.update(t, -7.0);
+        }
+        (c, t)
+    }
+
+    /// A temperature frozen on a ramp is flagged once it has repeated `stuck_samples` times,
+    /// the model keeps compensating at it, and a jump away from it restarts the estimator. A
+    /// hold reading one code for hours is never flagged, nor is a slow approach that stops.
     #[test]
     fn stuck_temperature_is_flagged_and_recovers() {
-        let n = SensorLimits::DEFAULT.stuck_samples as usize;
-        let mut c = comp();
-        let mut out = c.update(30.0, -7.0);
-        for _ in 0..n - 1 {
-            out = c.update(30.0, -7.0);
-            assert!(!out.status.contains(Status::TEMP_STUCK));
+        let n = SensorLimits::DEFAULT.stuck_samples;
+        let (mut c, held) = on_a_ramp();
+        for k in 1..=n {
+            let out = c.update(held, -7.0);
+            assert_eq!(
+                out.status.contains(Status::TEMP_STUCK),
+                k >= n,
+                "repeat {k}"
+            );
+            assert!(!out.status.contains(Status::TEMP_FAULT));
         }
-        // n readings so far (n - 1 repeats); the end of the hold by one code is no fault.
-        let want = TABLE.as_model().predict_dph(&[30.0, 0.0]) - TABLE.spec.reference_dph;
-        assert!((out.correction_dph - want).abs() < 1e-6);
-        let moved = c.update(30.01, -7.0);
-        assert!(moved.status.is_ok(), "{:?}", moved.status);
-
-        let mut c = comp();
-        for _ in 0..=n {
-            out = c.update(30.0, -7.0);
-        }
+        let out = c.update(held, -7.0);
         assert!(out.status.contains(Status::TEMP_STUCK) && out.status.is_fault());
-        assert!(!out.status.contains(Status::TEMP_FAULT));
-        // Still compensated, at the held reading.
+        // Still compensated, at the held reading and the estimator's (decaying) dT/dt.
+        let mut est = RateEstimator::new(TABLE.spec.rate_filter);
+        for k in 0..400 {
+            est.update(20.0 + 0.01 * k as f32);
+        }
+        let mut e = est.estimate();
+        for _ in 0..=n {
+            e = est.update(held);
+        }
+        let model = TABLE.as_model();
+        let x = c.features(held, &e);
+        let want = model.predict_dph(&x) - TABLE.spec.reference_dph;
         assert!((out.correction_dph - want).abs() < 1e-6);
         assert_eq!(out.rate_dph, -7.0 - out.correction_dph);
-        // The sensor comes back 12 °C away: no fault, a restart (warm-up), no stuck flag.
-        let back = c.update(42.0, -7.0);
+        // The sensor comes back 6 °C away: no fault, a restart (warm-up), no stuck flag.
+        let back = c.update(held + 6.0, -7.0);
         assert!(!back.status.is_fault(), "{:?}", back.status);
         assert!(back.status.contains(Status::WARMING_UP));
-        let mut est = RateEstimator::new(TABLE.spec.rate_filter);
-        let e = est.update(42.0);
-        assert_eq!(c.features(42.0, &e), [42.0, e.rate_c_per_s]);
-        // A NaN while stuck is a temperature fault like any other and does not clear the flag
-        // of the repeats counted so far.
+
+        // A hold from power-on, and a ramp that slows to a stop, read one code for an hour
+        // without a flag.
         let mut c = comp();
+        for _ in 0..3600 {
+            assert!(!c.update(30.0, -7.0).status.contains(Status::TEMP_STUCK));
+        }
+        let (mut c, _) = on_a_ramp();
+        let mut t = 24.0f64;
+        for k in 0..4000 {
+            // Exponential approach to 25 °C (τ = 600 s), read to 0.01 °C.
+            t = 25.0 - 1.0 * (-(k as f64) / 600.0).exp();
+            let code = ((t * 100.0).round() / 100.0) as f32;
+            let out = c.update(code, -7.0);
+            assert!(
+                !out.status.contains(Status::TEMP_STUCK),
+                "approach sample {k}: {code}"
+            );
+        }
+        assert!(t > 24.99);
+
+        // A NaN inside a frozen span is a temperature fault and does not clear the count.
+        let (mut c, held) = on_a_ramp();
         for _ in 0..=n {
-            c.update(30.0, -7.0);
+            c.update(held, -7.0);
         }
         assert!(c.update(f32::NAN, -7.0).status.contains(Status::TEMP_FAULT));
-        assert!(c.update(30.0, -7.0).status.contains(Status::TEMP_STUCK));
+        assert!(c.update(held, -7.0).status.contains(Status::TEMP_STUCK));
         // Disabled with 0.
         let limits = SensorLimits {
             stuck_samples: 0,
             ..SensorLimits::DEFAULT
         };
         let mut c = Compensator::new(TABLE.as_model(), limits);
-        for _ in 0..2 * n {
-            out = c.update(30.0, -7.0);
+        let mut out = c.update(20.0, -7.0);
+        for k in 0..400 {
+            out = c.update(20.0 + 0.01 * k as f32, -7.0);
         }
-        assert!(out.status.is_ok());
+        for _ in 0..2 * n {
+            out = c.update(23.99, -7.0);
+        }
+        assert!(!out.status.contains(Status::TEMP_STUCK));
     }
 
     #[test]

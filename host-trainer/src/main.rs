@@ -1,10 +1,22 @@
 //! `rlg`: the command-line front end of `host-trainer`.
 use clap::Parser;
 
-fn main() -> anyhow::Result<()> {
+/// A failed command prints its error and each cause on its own line and exits with 1. The
+/// error is the user's to fix (a file, a line, a value), so no backtrace is printed, even
+/// with `RUST_BACKTRACE` set; panics, which are bugs, still print theirs.
+fn main() -> std::process::ExitCode {
     quiet_on_closed_stdout();
     let line = host_trainer::cli::command_line(std::env::args());
-    host_trainer::cli::Cli::parse().run(&line)
+    match host_trainer::cli::Cli::parse().run(&line) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            for cause in e.chain().skip(1) {
+                eprintln!("  caused by: {}", cause.to_string().trim_end());
+            }
+            std::process::ExitCode::FAILURE
+        }
+    }
 }
 
 /// `rlg report | head` closes stdout early; Rust ignores SIGPIPE, so the next `println!`

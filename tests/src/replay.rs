@@ -143,8 +143,8 @@ pub const SCENARIO_FAULTS: [(usize, usize, Injected); 6] = [
     (4000, 1, Injected::TempSpike),
     // Longer than the compensator's 30-sample skip limit: forces an estimator restart.
     (6000, 40, Injected::NanTemp),
-    // On the down-ramp, frozen at 33.35 °C for 1300 s (longer than the 1200-repeat stuck
-    // limit), back at 11.67 °C.
+    // On the 1 °C/min down-ramp, frozen at 38.35 °C for 1300 s (longer than the 300-repeat
+    // stuck limit), back at 16.67 °C.
     (6400, 1300, Injected::StuckTemp),
 ];
 
@@ -179,14 +179,39 @@ pub fn scenario_temp_c(k: usize) -> f64 {
 /// Number of samples in [`scenario`].
 pub const SCENARIO_LEN: usize = 8400;
 
-/// The QEMU replay scenario: [`scenario_temp_c`] quantised to 0.01 °C like the board's ADC
-/// driver, a gyro at [`SCENARIO_BIAS_DPH`] with uniform noise of [`SCENARIO_NOISE_PP_DPH`]
+/// Thermal time constant of the gyro body behind the chamber profile, s.
+pub const SCENARIO_BODY_TAU_S: f64 = 300.0;
+
+/// The body temperature, °C, for each second of [`scenario`]: [`scenario_temp_c`] through a
+/// first-order lag of [`SCENARIO_BODY_TAU_S`] (exact for a profile linear over each second),
+/// starting settled. A real body never stops dead at the end of a ramp; the board's
+/// frozen-sensor rule relies on that.
+pub fn scenario_body_temp_c() -> Vec<f64> {
+    let a = (-1.0 / SCENARIO_BODY_TAU_S).exp();
+    let mut body = scenario_temp_c(0);
+    (0..SCENARIO_LEN)
+        .map(|k| {
+            if k > 0 {
+                // Chamber linear from k − 1 to k: the exact lag step for a ramp input.
+                let (c0, c1) = (scenario_temp_c(k - 1), scenario_temp_c(k));
+                let slope = c1 - c0;
+                body = c1 - slope * SCENARIO_BODY_TAU_S
+                    + (body - c0 + slope * SCENARIO_BODY_TAU_S) * a;
+            }
+            body
+        })
+        .collect()
+}
+
+/// The QEMU replay scenario: [`scenario_body_temp_c`] quantised to 0.01 °C like the board's
+/// ADC driver, a gyro at [`SCENARIO_BIAS_DPH`] with uniform noise of [`SCENARIO_NOISE_PP_DPH`]
 /// peak-to-peak, and the faults of [`SCENARIO_FAULTS`].
 pub fn scenario() -> Vec<ReplaySample> {
     let mut noise = SplitMix64(0x5eed_0001);
+    let body = scenario_body_temp_c();
     let mut out: Vec<ReplaySample> = (0..SCENARIO_LEN)
         .map(|k| ReplaySample {
-            temp_c: ((scenario_temp_c(k) * 100.0).round() / 100.0) as f32,
+            temp_c: ((body[k] * 100.0).round() / 100.0) as f32,
             rate_dph: (SCENARIO_BIAS_DPH + SCENARIO_NOISE_PP_DPH * noise.centred()) as f32,
         })
         .collect();
@@ -260,7 +285,15 @@ mod tests {
             / (SCENARIO_LEN - 1) as f64;
         assert!((mean - SCENARIO_BIAS_DPH).abs() < 1e-3, "mean rate {mean}");
         assert!(s[1000].temp_c.is_nan() && s[2000].rate_dph.is_nan() && s[3000].temp_c == 150.0);
-        assert!(s[6399..7700].iter().all(|x| x.temp_c == 33.35));
-        assert!((s[7700].temp_c - 11.67).abs() < 1e-5);
+        assert!(s[6399..7700].iter().all(|x| x.temp_c == s[6399].temp_c));
+        assert!((s[6399].temp_c - 38.35).abs() < 0.02, "{}", s[6399].temp_c);
+        assert!((s[7700].temp_c - 16.67).abs() < 0.02, "{}", s[7700].temp_c);
+        // The body lags the chamber by ramp rate × τ = 5 °C on a ramp and settles in holds.
+        let body = scenario_body_temp_c();
+        assert_eq!(body[0], 10.0);
+        // 30 min into the up-ramp: 5 °C behind, less the start transient 5·e^(−1800/300).
+        let want = 40.0 - 5.0 + 5.0 * (-6.0f64).exp();
+        assert!((body[600 + 1800] - want).abs() < 1e-9, "{}", body[2400]);
+        assert!((body[600 + 3300 + 599] - 65.0).abs() < 5.0 * (-599.0f64 / 300.0).exp() + 1e-6);
     }
 }

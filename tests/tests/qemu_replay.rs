@@ -166,6 +166,20 @@ fn qemu_replay_matches_host_bit_for_bit() {
             assert!(back - after <= 300, "re-warm took {} samples", back - after);
         }
     }
+    // No false alarm of the frozen-sensor rule: the settled holds read one code for minutes,
+    // and only the injected frozen span is flagged.
+    let (first, len, _) = replay::SCENARIO_FAULTS
+        .into_iter()
+        .find(|f| f.2 == replay::Injected::StuckTemp)
+        .expect("a stuck fault in the scenario");
+    for k in 0..input.len() {
+        if status(k).contains(Status::TEMP_STUCK) {
+            assert!(
+                (first..first + len).contains(&k),
+                "TEMP_STUCK at sample {k}"
+            );
+        }
+    }
     // Every fault episode was logged once, at its first sample, as a defmt warning.
     let warnings: Vec<&String> = run.log.iter().filter(|l| l.contains("fault 0x")).collect();
     for (first, _, fault) in replay::SCENARIO_FAULTS {
