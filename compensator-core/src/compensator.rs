@@ -52,7 +52,8 @@ impl Status {
     pub const GYRO_FAULT: Status = Status(1 << 3);
     /// The model table failed validation; the raw rate is passed through.
     pub const TABLE_FAULT: Status = Status(1 << 4);
-    /// The temperature has read bit-identical for `stuck_samples` accepted samples; the model
+    /// The temperature has read bit-identical for `stuck_samples` accepted samples although
+    /// the body was moving when that reading appeared (a frozen sensor, rule 4); the model
     /// compensates at the held reading.
     pub const TEMP_STUCK: Status = Status(1 << 5);
 
@@ -118,9 +119,9 @@ impl SensorLimits {
         max_temp_step_c: 2.0,
         rate_limit_dph: 3.6e6,
         max_skipped: 30,
-        // 5 min without a single code change where the body was moving at ≥ 0.1 °C/min: at
-        // least 0.4 °C of real change even if the chamber stopped at that moment (body time
-        // constants are tens of minutes), 40 codes of a 0.01 °C sensor.
+        // 5 min without a single code change where the body was moving at ≥ 0.1 °C/min: even
+        // if the chamber stopped at that moment, a body with a 10 min time constant still
+        // moves 0.1 °C/min · 10 min · (1 − e^(−1/2)) ≈ 0.4 °C, 40 codes of a 0.01 °C sensor.
         stuck_samples: 300,
         stuck_min_change_c: 0.5,
     };
