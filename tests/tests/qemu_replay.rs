@@ -1,8 +1,9 @@
 //! The firmware image in QEMU reproduces the host's `Compensator` bit for bit.
 //!
-//! A deterministic scenario (a 10 → 65 → 10 °C profile at 1 °C/min with holds, quantised to
-//! 0.01 °C, a −7.1 °/h gyro with pseudo-noise, and injected NaN, out-of-range and spike
-//! faults) is compiled into the image, replayed on the emulated Cortex-M4F, and every output
+//! A deterministic scenario (a gyro body following a 10 → 65 → 10 °C chamber profile at
+//! 1 °C/min with holds through a 300 s lag, quantised to 0.01 °C, a −7.1 °/h gyro with
+//! pseudo-noise, and injected NaN, out-of-range, spike, dropout and frozen-sensor faults) is
+//! compiled into the image, replayed on the emulated Cortex-M4F, and every output
 //! sample is compared with `compensator_core::Compensator` run on the host over the same f32
 //! inputs with the same model table file.
 //!
