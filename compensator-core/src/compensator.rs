@@ -651,14 +651,27 @@ mod tests {
         #[test]
         fn outputs_are_always_finite(seq in proptest::collection::vec((any_f32(), any_f32()), 1..400)) {
             let mut c = comp();
+            let l = SensorLimits::DEFAULT;
             for (t, r) in seq {
                 let out = c.update(t, r);
                 prop_assert!(out.rate_dph.is_finite() && out.correction_dph.is_finite());
-                if !r.is_finite() {
+                // Non-finite or implausible input is flagged, and its output is the safe one:
+                // a rejected temperature passes the raw rate through uncompensated.
+                if !(r.is_finite() && r.abs() <= l.rate_limit_dph) {
                     prop_assert!(out.status.contains(Status::GYRO_FAULT));
                 }
-                if !t.is_finite() {
+                if !(t >= l.temp_min_c && t <= l.temp_max_c) {
                     prop_assert!(out.status.contains(Status::TEMP_FAULT));
+                    prop_assert_eq!(out.correction_dph, 0.0);
+                    if !out.status.contains(Status::GYRO_FAULT) {
+                        prop_assert_eq!(out.rate_dph, r);
+                    }
+                }
+                // A temperature outside the table's trained range (but plausible) is clamped
+                // and flagged.
+                let (lo, hi) = (TABLE.spec.input_lo[0], TABLE.spec.input_hi[0]);
+                if !out.status.contains(Status::TEMP_FAULT) && !(t >= lo && t <= hi) {
+                    prop_assert!(out.status.contains(Status::OUT_OF_RANGE));
                 }
             }
         }

@@ -348,7 +348,9 @@ impl ModelFile {
                 })
             }
         }
-        let m: ModelFile = serde_json::from_value(value).map_err(fmt)?;
+        // From the text again, not from `value`: serde_json then says where (line, column) a
+        // field is missing or of the wrong type.
+        let m: ModelFile = serde_json::from_str(text).map_err(fmt)?;
         m.validate()?;
         Ok(m)
     }
@@ -420,6 +422,34 @@ mod tests {
         assert!(matches!(e, ModelError::Version { found: 2, .. }), "{e}");
         assert!(e.to_string().contains("format_version 2"), "{e}");
         assert!(ModelFile::from_json("{}", "m.json").is_err());
+    }
+
+    /// A structurally wrong model file names the file, the field and where it is.
+    #[test]
+    fn format_errors_say_where() {
+        let e = ModelFile::from_json(
+            "{\"format_version\": 1,\n \"features\": [1, 2]\n}\n",
+            "m.json",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.starts_with("m.json: not a model file: "), "{e}");
+        // serde reports a missing field where the object ends.
+        assert!(
+            e.contains("missing field") && e.contains("line 3 column 1"),
+            "{e}"
+        );
+        let m = tiny().to_json();
+        let bad = m.replacen("\"sigma\": 1.0", "\"sigma\": \"wide\"", 1);
+        assert_ne!(bad, m, "the edit must apply");
+        let line = 1 + bad[..bad.find("\"wide\"").unwrap()].matches('\n').count();
+        let e = ModelFile::from_json(&bad, "m.json")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("invalid type") && e.contains(&format!("line {line} column")),
+            "{e}"
+        );
     }
 
     #[test]
