@@ -670,7 +670,8 @@ mod tests {
                 // A temperature outside the table's trained range (but plausible) is clamped
                 // and flagged.
                 let (lo, hi) = (TABLE.spec.input_lo[0], TABLE.spec.input_hi[0]);
-                if !out.status.contains(Status::TEMP_FAULT) && !(t >= lo && t <= hi) {
+                let in_trained_range = t >= lo && t <= hi;
+                if !out.status.contains(Status::TEMP_FAULT) && !in_trained_range {
                     prop_assert!(out.status.contains(Status::OUT_OF_RANGE));
                 }
             }
