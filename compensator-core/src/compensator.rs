@@ -655,6 +655,10 @@ mod tests {
             for (t, r) in seq {
                 let out = c.update(t, r);
                 prop_assert!(out.rate_dph.is_finite() && out.correction_dph.is_finite());
+                // Bounded: a Gaussian kernel is at most 1, so |correction| ≤ Σ|a| + |b − ref|.
+                let bound = TABLE.alpha_dph.iter().map(|a| a.abs()).sum::<f32>()
+                    + (TABLE.spec.bias_dph - TABLE.spec.reference_dph).abs();
+                prop_assert!(out.correction_dph.abs() <= bound * (1.0 + 1e-5), "{out:?}");
                 // Non-finite or implausible input is flagged, and its output is the safe one:
                 // a rejected temperature passes the raw rate through uncompensated.
                 if !(r.is_finite() && r.abs() <= l.rate_limit_dph) {
