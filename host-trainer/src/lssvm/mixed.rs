@@ -114,7 +114,7 @@ pub struct MixedStats {
 }
 
 /// y ← H·x for the symmetric H stored as its lower triangle `h`.
-pub fn sym_mul(h: MatRef<'_, f64>, x: MatRef<'_, f64>, y: MatMut<'_, f64>, par: Par) {
+fn sym_mul(h: MatRef<'_, f64>, x: MatRef<'_, f64>, y: MatMut<'_, f64>, par: Par) {
     let mut y = y;
     matmul(
         y.rb_mut(),
