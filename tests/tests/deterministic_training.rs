@@ -5,7 +5,13 @@
 use host_trainer::model::{ModelFile, Provenance};
 use host_trainer::pipeline;
 
+/// faer's parallelism is process-global: the tests of this file take turns setting it.
+static GLOBAL_PARALLELISM: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    let _turn = GLOBAL_PARALLELISM
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
