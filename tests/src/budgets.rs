@@ -21,7 +21,7 @@ use std::process::{Command, Stdio};
 use std::time::Duration;
 
 use compensator_core::fixed::{FixedModel, Q, Z};
-use compensator_core::{Feature, ModelRef, ModelSpec, ModelTable, RateFilter};
+use compensator_core::{ModelRef, ModelSpec, ModelTable, RateFilter};
 use host_trainer::export::{table_item, F32Model};
 use object::{Object, ObjectSection, ObjectSymbol, SectionFlags};
 
@@ -42,16 +42,8 @@ pub fn synthetic_table(n: usize, seed: u64) -> F32Model<2> {
         lo + (hi - lo) * ((state >> 40) as f32 / (1u64 << 24) as f32)
     };
     let spec = ModelSpec {
-        features: [Feature::TempC, Feature::TempRateCPerS],
-        input_mean: [36.4, 0.0],
-        input_inv_scale: [0.0419, 174.4],
-        linear_dph: [0.0, 0.0],
-        input_lo: [11.2, -0.015],
-        input_hi: [68.9, 0.015],
-        gamma: 0.5,
-        bias_dph: -7.1,
-        reference_dph: -7.1,
         rate_filter: RateFilter::from_tau_s(60.0, 1.0),
+        ..crate::fuzz_checks::SPEC2
     };
     let support = (0..n)
         .map(|_| [uniform(-1.06, 1.36), uniform(-2.6, 2.6)])

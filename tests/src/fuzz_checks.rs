@@ -54,8 +54,8 @@ pub fn core_update(data: &[u8]) {
     run(&TABLE3, data);
 }
 
-/// The two-input spec.
-const SPEC2: ModelSpec<2> = ModelSpec {
+/// The two-input spec (also the base of the synthetic budget tables, `crate::budgets`).
+pub(crate) const SPEC2: ModelSpec<2> = ModelSpec {
     features: [Feature::TempC, Feature::TempRateCPerS],
     input_mean: [36.4, 0.0],
     input_inv_scale: [0.0419, 174.4],
