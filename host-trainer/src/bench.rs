@@ -171,7 +171,7 @@ pub struct ExactTimings {
     pub n: usize,
     /// Kernel matrix alone.
     pub kernel_s: f64,
-    /// Eq. (9): kernel matrix, Cholesky, two solves ([`solve`]: mixed precision from
+    /// Eq. (9) by [`solve`]: kernel matrix and two solves (iterative from
     /// `MIXED_MIN_N` samples on).
     pub solve_s: f64,
     /// Eq. (9) by the f64 Cholesky alone.

@@ -84,6 +84,12 @@ pub struct BenchLssvmArgs {
     /// faer parallelism.
     #[arg(long, value_enum, default_value_t = Par::Rayon)]
     pub par: Par,
+    /// Gaussian kernel width σ, standardised units (default: the pipeline's).
+    #[arg(long, default_value_t = pipeline::SIGMA)]
+    pub sigma: f64,
+    /// Regularisation c (default: the pipeline's).
+    #[arg(long, default_value_t = pipeline::C)]
+    pub c: f64,
 }
 
 /// Runs `rlg bench-lssvm`: writes the data files and times the exact path on them; the
@@ -94,7 +100,7 @@ pub fn run_lssvm(a: &BenchLssvmArgs) -> anyhow::Result<()> {
         Par::Rayon => faer::Par::rayon(rayon::current_num_threads()),
     });
     std::fs::create_dir_all(&a.data_dir)?;
-    let (sigma, c) = (pipeline::SIGMA, pipeline::C);
+    let (sigma, c) = (a.sigma, a.c);
     let mut json = Vec::new();
     println!(
         "{:>6} {:>11} {:>11} {:>11} {:>11} {:>14}  {:>9}  path   (faer {:?}, σ = {sigma}, c = {c}, median of {})",

@@ -3,8 +3,9 @@
 //! * [`scaling`]: per-feature standardisation fitted on the training inputs.
 //! * [`solve`]: the kernel matrix and the solution of Eq. (9) by Cholesky, a dense reference
 //!   solve, and closed-form leave-one-out residuals.
-//! * [`mixed`]: the mixed-precision solve [`solve`] takes for large n (f32 Cholesky as the
-//!   preconditioner of f64 conjugate gradients).
+//! * [`mixed`]: the iterative solves [`solve`] takes for large n: f64 conjugate gradients
+//!   preconditioned by a low-rank factor of K ([`pivoted`], on H in [`packed`] storage) or by
+//!   an f32 Cholesky factor.
 //! * [`tune`]: σ and c by closed-form leave-one-out or blocked / group cross-validation.
 //!
 //! [`Lssvm`] ties them together: train on raw features, predict on raw features.
@@ -12,6 +13,8 @@
 pub mod dataset;
 pub mod fixed_size;
 pub mod mixed;
+pub mod packed;
+pub mod pivoted;
 pub mod prune;
 pub mod scaling;
 pub mod solve;

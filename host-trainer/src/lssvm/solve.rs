@@ -10,9 +10,10 @@
 //! is solved by one Cholesky factorisation of the symmetric positive definite H and two
 //! solves, η = H⁻¹y and ν = H⁻¹1: b = 1ᵀη / 1ᵀν, a = η − bν (block elimination of the first
 //! row). Cost: n³/3 flops for the factorisation, n² per solve. From [`MIXED_MIN_N`] samples
-//! on, [`solve`] factorises in f32 and solves by preconditioned CG in f64 ([`super::mixed`]),
-//! to the backward error of the f64 solve; [`solve_f64`] is the plain f64 path. The LOO
-//! residuals need diag(H⁻¹) and stay on the f64 factor.
+//! on, [`solve`] solves by preconditioned CG in f64 ([`super::mixed`]) to the backward error
+//! of the f64 solve, with a low-rank preconditioner (no O(n³) step) or, failing that, an f32
+//! Cholesky one; [`solve_f64`] is the plain f64 path. The LOO residuals need diag(H⁻¹) and
+//! stay on the f64 factor.
 //!
 //! Leave-one-out residuals follow in closed form (Cawley & Talbot 2004, after Allen's PRESS):
 //! with A the full (n+1)×(n+1) matrix above, y_i − f₋ᵢ(x_i) = a_i / (A⁻¹)_{i+1,i+1}, and the
@@ -21,6 +22,7 @@
 use faer::prelude::*;
 use faer::Side;
 
+use super::packed::PackedLower;
 use super::{mixed, LssvmError};
 
 /// Solution of Eq. (9): coefficients a_i and bias b, in the targets' unit (°/h).
@@ -166,8 +168,8 @@ pub fn solve_f64(z: &[Vec<f64>], y: &[f64], sigma: f64, c: f64) -> Result<Soluti
     factorise(z, y, sigma, c).map(|f| f.solution)
 }
 
-/// From this many samples on, [`solve`] takes the mixed-precision path ([`mixed`]); below,
-/// the f64 Cholesky costs little and the results stay those of the plain f64 solve.
+/// From this many samples on, [`solve`] takes the iterative paths ([`mixed`]); below, the
+/// f64 Cholesky costs little and the results stay those of the plain f64 solve.
 pub const MIXED_MIN_N: usize = 1000;
 
 /// How [`solve_reporting`] solved the system.
@@ -175,10 +177,27 @@ pub const MIXED_MIN_N: usize = 1000;
 pub enum SolvePath {
     /// f64 Cholesky (n below [`MIXED_MIN_N`]).
     F64,
-    /// f32 Cholesky + f64 CG, with its statistics.
-    Mixed(mixed::MixedStats),
-    /// The mixed path gave up (why), then f64 Cholesky.
-    Fallback(mixed::GiveUp),
+    /// f64 CG preconditioned by a pivoted Cholesky factor of K of this rank.
+    LowRank {
+        /// Columns of the factor.
+        rank: usize,
+        /// CG statistics.
+        stats: mixed::MixedStats,
+    },
+    /// The low-rank path gave up (why), then f32 Cholesky + f64 CG.
+    Mixed {
+        /// Why the low-rank path gave up.
+        low_rank: mixed::GiveUp,
+        /// CG statistics.
+        stats: mixed::MixedStats,
+    },
+    /// Both iterative paths gave up, then f64 Cholesky.
+    Fallback {
+        /// Why the low-rank path gave up.
+        low_rank: mixed::GiveUp,
+        /// Why the mixed-precision path gave up.
+        mixed: mixed::GiveUp,
+    },
 }
 
 /// [`solve`], also saying which path solved it.
@@ -193,11 +212,22 @@ pub fn solve_reporting(
     if n < MIXED_MIN_N {
         return factorise(z, y, sigma, c).map(|f| (f.solution, SolvePath::F64));
     }
-    let (h, h32) = mixed::h_lower_pair(z, sigma, c);
     let rhs = rhs_y1(y);
+    let packed = PackedLower::gaussian(z, sigma, c);
+    let low_rank = match mixed::solve_low_rank(&packed, z, sigma, c, rhs.as_ref()) {
+        Ok((x, stats, rank)) => {
+            return eliminate(x.as_ref())
+                .map(|(sol, _, _)| (sol, SolvePath::LowRank { rank, stats }))
+        }
+        Err(why) => why,
+    };
+    let h = packed.to_square_lower();
+    drop(packed);
+    let h32: Vec<f32> = h.iter().map(|v| *v as f32).collect();
     let why = match mixed::solve(&h, h32, rhs.as_ref()) {
         Ok((x, stats)) => {
-            return eliminate(x.as_ref()).map(|(sol, _, _)| (sol, SolvePath::Mixed(stats)))
+            return eliminate(x.as_ref())
+                .map(|(sol, _, _)| (sol, SolvePath::Mixed { low_rank, stats }))
         }
         Err(why) => why,
     };
@@ -205,12 +235,21 @@ pub fn solve_reporting(
     drop(h);
     let mut rhs = rhs;
     llt.solve_in_place(&mut rhs);
-    eliminate(rhs.as_ref()).map(|(sol, _, _)| (sol, SolvePath::Fallback(why)))
+    eliminate(rhs.as_ref()).map(|(sol, _, _)| {
+        (
+            sol,
+            SolvePath::Fallback {
+                low_rank,
+                mixed: why,
+            },
+        )
+    })
 }
 
-/// Solves Eq. (9) for standardised inputs `z` (rows) and targets `y` by Cholesky of K + I/c:
-/// in f64 below [`MIXED_MIN_N`] samples, from there on in mixed precision to the same backward
-/// error (falling back to f64 where that does not converge).
+/// Solves Eq. (9) for standardised inputs `z` (rows) and targets `y`: by the f64 Cholesky of
+/// K + I/c below [`MIXED_MIN_N`] samples; from there on by CG on the f64 system to the
+/// backward error of that Cholesky solve, preconditioned by a low-rank factor of K, else by
+/// an f32 Cholesky factor, and by the f64 Cholesky when neither converges.
 pub fn solve(z: &[Vec<f64>], y: &[f64], sigma: f64, c: f64) -> Result<Solution, LssvmError> {
     solve_reporting(z, y, sigma, c).map(|(s, _)| s)
 }
