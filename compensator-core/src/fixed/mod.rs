@@ -59,35 +59,46 @@ impl<const F: u32> Q<F> {
     /// The nearest `Q<F>` to an f32 given by its bits, ties away from zero, integer
     /// arithmetic only; None for NaN/infinity or a value outside the i32 range.
     pub const fn from_f32_bits(bits: u32) -> Option<Self> {
-        let neg = bits >> 31 != 0;
-        let exp = ((bits >> 23) & 0xff) as i32;
-        if exp == 0xff {
-            return None;
-        }
-        let (mant, e) = if exp == 0 {
-            ((bits & 0x7f_ffff) as u64, 1)
-        } else {
-            (((bits & 0x7f_ffff) | 0x80_0000) as u64, exp)
-        };
         // value = mant·2^(e − 150); in Q<F>: mant·2^(e − 150 + F).
-        let shift = e - 150 + F as i32;
-        let mag: u64 = if shift >= 0 {
-            if shift > 40 {
-                return None;
-            }
-            mant << shift
-        } else if -shift > 40 {
-            0
-        } else {
-            let s = (-shift) as u32;
-            (mant + (1 << (s - 1))) >> s
-        };
-        if mag > i32::MAX as u64 {
+        match round_scaled(bits, 1, F as i32 - 150, i32::MAX as u128) {
+            Some(v) => Some(Q(v)),
+            None => None,
+        }
+    }
+}
+
+/// round(mant·factor·2^(e + shift)) with the sign of the f32 whose bits are given
+/// (value = ±mant·2^(e − 150)), ties away from zero; None for NaN/infinity or a magnitude
+/// above `limit` (≤ i32::MAX). `factor` < 2^32.
+const fn round_scaled(bits: u32, factor: u128, shift: i32, limit: u128) -> Option<i32> {
+    let neg = bits >> 31 != 0;
+    let exp = ((bits >> 23) & 0xff) as i32;
+    if exp == 0xff {
+        return None;
+    }
+    let (mant, e) = if exp == 0 {
+        ((bits & 0x7f_ffff) as u128, 1)
+    } else {
+        (((bits & 0x7f_ffff) | 0x80_0000) as u128, exp)
+    };
+    let p = mant * factor; // < 2^56
+    let shift = e + shift;
+    let mag: u128 = if shift >= 0 {
+        if shift > 40 {
             return None;
         }
-        let v = mag as i32;
-        Some(Q(if neg { -v } else { v }))
+        p << shift
+    } else if -shift >= 127 {
+        0
+    } else {
+        let s = (-shift) as u32;
+        (p + (1 << (s - 1))) >> s
+    };
+    if mag > limit {
+        return None;
     }
+    let v = mag as i32;
+    Some(if neg { -v } else { v })
 }
 
 /// e^(−1/32) in Q62.
@@ -216,35 +227,8 @@ const fn sqrt_q28(bits: u32) -> Option<u32> {
 /// A standardised value given by its f32 bits times √γ (Q28), in Q24 rounded to nearest;
 /// None for NaN/infinity or a result outside ±32.
 const fn scaled_q24(bits: u32, sqrt_gamma: u32) -> Option<i32> {
-    let neg = bits >> 31 != 0;
-    let exp = ((bits >> 23) & 0xff) as i32;
-    if exp == 0xff {
-        return None;
-    }
-    let (mant, e) = if exp == 0 {
-        ((bits & 0x7f_ffff) as u128, 1)
-    } else {
-        (((bits & 0x7f_ffff) | 0x80_0000) as u128, exp)
-    };
     // value·√γ·2^24 = mant·sg·2^(e − 150 − 28 + 24) = mant·sg·2^(e − 154).
-    let p = mant * sqrt_gamma as u128;
-    let shift = e - 154;
-    let mag: u128 = if shift >= 0 {
-        if shift > 40 {
-            return None;
-        }
-        p << shift
-    } else if -shift > 100 {
-        0
-    } else {
-        let s = (-shift) as u32;
-        (p + (1 << (s - 1))) >> s
-    };
-    if mag > Z_LIM as u128 {
-        return None;
-    }
-    let v = mag as i32;
-    Some(if neg { -v } else { v })
+    round_scaled(bits, sqrt_gamma as u128, -154, Z_LIM as u128)
 }
 
 const fn conv<const F: u32>(v: f32, what: &'static str) -> Result<Q<F>, FixedError> {
