@@ -26,6 +26,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
+use super::solve::gauss;
 use super::LssvmError;
 
 /// Eigenvalues of K_MM below this fraction of the largest are dropped from the Nyström map:
@@ -70,13 +71,6 @@ impl Rows {
     pub fn row(&self, i: usize) -> &[f64] {
         &self.data[i * self.dim..(i + 1) * self.dim]
     }
-}
-
-/// exp(−‖a − b‖² · inv), inv = 1/(2σ²): Eq. (8).
-#[inline]
-fn gauss(a: &[f64], b: &[f64], inv: f64) -> f64 {
-    let d2: f64 = a.iter().zip(b).map(|(p, q)| (p - q) * (p - q)).sum();
-    (-d2 * inv).exp()
 }
 
 /// Quadratic Rényi entropy of the points `idx` of `z` with a Gaussian Parzen window of width

@@ -28,6 +28,7 @@ use rayon::prelude::*;
 
 use super::packed::PackedLower;
 use super::pivoted::LowRank;
+use super::solve::gauss;
 
 /// Most CG steps before giving up (LAPACK's `dsposv` allows 30 refinement steps).
 pub const MAX_STEPS: usize = 30;
@@ -55,9 +56,7 @@ fn fill_lower(z: &[Vec<f64>], sigma: f64, c: f64, out: &mut [f64]) {
         let zj = &flat[j * dim..(j + 1) * dim];
         col[j] = diag;
         for (i, v) in col.iter_mut().enumerate().skip(j + 1) {
-            let zi = &flat[i * dim..(i + 1) * dim];
-            let d2: f64 = zi.iter().zip(zj).map(|(a, b)| (a - b) * (a - b)).sum();
-            *v = (-d2 * inv).exp();
+            *v = gauss(&flat[i * dim..(i + 1) * dim], zj, inv);
         }
     };
     if faer::get_global_parallelism() == Par::Seq {

@@ -11,6 +11,8 @@
 
 use rayon::prelude::*;
 
+use super::solve::gauss;
+
 /// Column blocks of [`PackedLower::mul`] (fixed: the sum order must not depend on threads).
 const BLOCKS: usize = 16;
 
@@ -41,9 +43,7 @@ impl PackedLower {
             let zj = &flat[j * dim..(j + 1) * dim];
             col[0] = diag;
             for (k, v) in col.iter_mut().enumerate().skip(1) {
-                let zi = &flat[(j + k) * dim..(j + k + 1) * dim];
-                let d2: f64 = zi.iter().zip(zj).map(|(a, b)| (a - b) * (a - b)).sum();
-                *v = (-d2 * inv).exp();
+                *v = gauss(&flat[(j + k) * dim..(j + k + 1) * dim], zj, inv);
             }
         });
         PackedLower { n, data }

@@ -17,6 +17,8 @@ use faer::linalg::matmul::matmul;
 use faer::prelude::*;
 use faer::{Accum, Par, Side};
 
+use super::solve::gauss;
+
 /// The preconditioner P = L·Lᵀ + D with D = diag(d) + I/c.
 pub struct LowRank {
     /// n×r factor.
@@ -65,11 +67,8 @@ impl LowRank {
                 break;
             }
             let zp = &flat[p * dim..(p + 1) * dim];
-            let mut col = Mat::<f64>::from_fn(n, 1, |i, _| {
-                let zi = &flat[i * dim..(i + 1) * dim];
-                let d2: f64 = zi.iter().zip(zp).map(|(a, b)| (a - b) * (a - b)).sum();
-                (-d2 * inv).exp()
-            });
+            let mut col =
+                Mat::<f64>::from_fn(n, 1, |i, _| gauss(&flat[i * dim..(i + 1) * dim], zp, inv));
             if rank > 0 {
                 // col −= L·L[p, :]ᵀ
                 let l = MatRef::from_column_major_slice(&lbuf, n, rank);

@@ -84,6 +84,14 @@ fn validate(z: &[Vec<f64>], y: &[f64], sigma: f64, c: f64) -> Result<usize, Lssv
     Ok(dim)
 }
 
+/// exp(−‖a − b‖² · inv), inv = 1/(2σ²): one entry of Eq. (8), the same bits wherever the
+/// kernel is formed.
+#[inline]
+pub(crate) fn gauss(a: &[f64], b: &[f64], inv: f64) -> f64 {
+    let d2: f64 = a.iter().zip(b).map(|(p, q)| (p - q) * (p - q)).sum();
+    (-d2 * inv).exp()
+}
+
 /// The Gaussian kernel matrix K_ij = exp(−‖z_i − z_j‖² / 2σ²) of Eq. (8).
 ///
 /// Symmetric with a unit diagonal: each off-diagonal entry is computed once and mirrored.
@@ -99,9 +107,7 @@ pub fn kernel_matrix(z: &[Vec<f64>], sigma: f64) -> Mat<f64> {
         let zj = &flat[j * dim..(j + 1) * dim];
         k[(j, j)] = 1.0;
         for i in j + 1..n {
-            let zi = &flat[i * dim..(i + 1) * dim];
-            let d2: f64 = zi.iter().zip(zj).map(|(a, b)| (a - b) * (a - b)).sum();
-            let v = (-d2 * inv).exp();
+            let v = gauss(&flat[i * dim..(i + 1) * dim], zj, inv);
             k[(i, j)] = v;
             k[(j, i)] = v;
         }
