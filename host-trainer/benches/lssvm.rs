@@ -1,6 +1,7 @@
-//! Exact LS-SVM training (Eq. 9 by Cholesky, n = 1000, 2000, 5000), its closed-form LOO, the
-//! kernel matrix alone, with faer sequential and on the rayon pool; and the fixed-size
-//! reduction of 10⁵ and 10⁶ raw samples to 64 support vectors.
+//! Exact LS-SVM training (Eq. 9 by `solve`, low-rank-preconditioned CG from 1000 samples on)
+//! at n = 1000, 2000, 5000, its closed-form LOO and the kernel matrix alone, with faer
+//! sequential and on the rayon pool; and the fixed-size reduction of 10⁵ and 10⁶ raw samples
+//! to 64 support vectors.
 //!
 //! Run: `cargo bench -p host-trainer --bench lssvm`. The comparison against numpy / scipy /
 //! scikit-learn on the same data is `host-trainer/bench/run.sh`.
