@@ -24,3 +24,6 @@ cargo clippy -p firmware --target thumbv7em-none-eabihf --profile firmware -- -D
 
 step "tests (host crates, firmware logic on the host, firmware in QEMU)"
 cargo test --workspace
+
+step "diagnosis benchmark, quick set (release; regression floors on detection and false alarms)"
+cargo test --release -p host-trainer --lib quick_benchmark -- --ignored --nocapture

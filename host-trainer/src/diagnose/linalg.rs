@@ -75,6 +75,15 @@ impl Basis {
         v
     }
 
+    /// ln det of the Gram matrix of the kept columns, Σ 2·ln r_ii (R of their QR).
+    pub fn log_gram_det(&self) -> f64 {
+        self.r
+            .iter()
+            .enumerate()
+            .map(|(i, c)| 2.0 * c[i].ln())
+            .sum()
+    }
+
     /// Least-squares coefficients of the input columns for `y` (0 for dropped columns).
     pub fn coefficients(&self, y: &[f64]) -> Vec<f64> {
         let k = self.q.len();

@@ -4,11 +4,13 @@
 //! Pipeline ([`diagnose`]):
 //! 1. Fit the model's linear parameters by least squares on 100 s means, driven by the
 //!    recorded temperature and its dT/dt (centred difference, see [`prepare`]).
-//! 2. Model the residual's noise as AR(p) on 100 s means ([`noise`]) and whiten.
+//! 2. Fit the gyro noise to the baseline residual (angle random walk from its Allan variance,
+//!    bias instability by REML on the 100 s means) and whiten the means by the exact
+//!    Cholesky factor of that model's block-mean covariance ([`noise`]).
 //! 3. For every library term the model lacks ([`candidates::Family`]), scan its non-linear
 //!    parameter on a grid, fit its amplitude jointly with the baseline, and score it by
 //!    ΔBIC on the whitened 100 s means.
-//! 4. Thresholds: a parametric bootstrap of the AR(p) noise model run through the same scan
+//! 4. Thresholds: a parametric bootstrap of the fitted noise model run through the same scan
 //!    gives the null distribution of the best ΔBIC over all candidates (this accounts for the
 //!    coloured noise and for the look-elsewhere effect of the scans); a candidate counts when
 //!    its ΔBIC is below the null's 1 − α quantile AND it lowers the held-out (4-fold,
@@ -154,6 +156,10 @@ pub struct Evidence {
     pub noise_ar: Vec<f64>,
     /// Innovation σ of the noise model, °/h.
     pub noise_sigma_dph: f64,
+    /// How the tests whitened the 100 s means: "gls" (exact covariance of the fitted gyro
+    /// noise) or "ar" (the AR(p) fit; recordings longer than the GLS limit).
+    #[serde(default)]
+    pub whitening: String,
     /// Gyro noise fitted to the 1 Hz residual for the bootstrap: angle random walk °/√h,
     /// bias instability °/h, rate random walk °/h/√h.
     pub noise_fit: [f64; 3],
@@ -175,6 +181,10 @@ pub struct CandidateScore {
     pub mechanism: String,
     /// Best ΔBIC over its grid.
     pub delta_bic: f64,
+    /// The significance threshold its ΔBIC is compared with (the bootstrap's, one for all
+    /// families at present).
+    #[serde(default)]
+    pub threshold: f64,
     /// Held-out gain, (°/h)² (evaluated only for significant candidates, else 0).
     pub heldout_gain: f64,
 }
