@@ -872,9 +872,10 @@ mod tests {
     }
 
     /// The quick benchmark end to end (release only: `cargo test --release -p host-trainer
-    /// quick_benchmark -- --ignored`; 21 s on 2 cores). Regression floors, below the issue's
-    /// targets (measured at seed 1: 7 of 16 named, 1 of 8 false alarms): at least 6 of 16
-    /// hidden terms named and at most 2 of 8 alarms without one.
+    /// quick_benchmark -- --ignored`, run by the test command; 48 s on 2 cores). Regression
+    /// floors, below the targets (measured 2026-11-23 at seed 1: 13 of 16 named, 1 of 8
+    /// false alarms): at least 6 of 16 hidden terms named and at most 2 of 8 alarms without
+    /// one.
     #[test]
     #[ignore = "release-mode benchmark"]
     fn quick_benchmark() {
