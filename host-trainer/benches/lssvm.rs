@@ -47,5 +47,11 @@ fn fixed_size(cr: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, exact, fixed_size);
+// No plots: criterion's plotters backend needs a system font and panics without one, after
+// the figures are printed but with a failing exit status.
+criterion_group! {
+    name = benches;
+    config = Criterion::default().without_plots();
+    targets = exact, fixed_size
+}
 criterion_main!(benches);
