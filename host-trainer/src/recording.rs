@@ -61,6 +61,24 @@ impl Recording {
         self.time_s.is_empty()
     }
 
+    /// The first `n` samples (all of them when `n` ≥ the length), every column and the
+    /// comments kept: e.g. the training part of a calibration run.
+    pub fn head(&self, n: usize) -> Recording {
+        let n = n.min(self.len());
+        Recording {
+            time_s: self.time_s[..n].to_vec(),
+            rate_dph: self.rate_dph[..n].to_vec(),
+            temp_c: self.temp_c[..n].to_vec(),
+            chamber_c: self.chamber_c.as_ref().map(|c| c[..n].to_vec()),
+            extra: self
+                .extra
+                .iter()
+                .map(|(h, v)| (h.clone(), v[..n.min(v.len())].to_vec()))
+                .collect(),
+            comments: self.comments.clone(),
+        }
+    }
+
     /// Reads and validates a recording.
     ///
     /// Fields are plain (no quoting): a field may not hold a comma. Blank lines are skipped;
@@ -391,6 +409,24 @@ mod tests {
             }
             other => panic!("expected a format error, got {other:?}"),
         }
+    }
+
+    #[test]
+    fn head_keeps_every_column_of_the_first_samples() {
+        let text = "# kept\nrate_dph,note,temp_c,time_s,chamber_c\n-7.1,a,20.5,0,15\n-7.2,b,20.6,1,15.1\n-7.3,c,20.7,2,15.2\n";
+        let r = parse(text).unwrap();
+        let h = r.head(2);
+        assert_eq!(h.time_s, vec![0.0, 1.0]);
+        assert_eq!(h.rate_dph, vec![-7.1, -7.2]);
+        assert_eq!(h.temp_c, vec![20.5, 20.6]);
+        assert_eq!(h.chamber_c, Some(vec![15.0, 15.1]));
+        assert_eq!(
+            h.extra,
+            vec![("note".to_string(), vec!["a".to_string(), "b".to_string()])]
+        );
+        assert_eq!(h.comments, r.comments);
+        assert_eq!(r.head(99), r);
+        assert!(r.head(0).is_empty());
     }
 
     #[test]
