@@ -501,9 +501,27 @@ pub fn case_simulation(
     family: Option<Family>,
     seed: u64,
 ) -> Result<(String, Option<Term>, crate::simulate::Simulation), BenchError> {
+    let (profile, hidden, mut runs) = case_runs(id, family, seed, 1)?;
+    Ok((profile, hidden, runs.remove(0)))
+}
+
+/// Case `id` run `runs` times: the same gyro (profile, physics, hidden term, noise levels) in
+/// the chamber again, each run with its own noise. Run 0 is [`case_simulation`]'s recording;
+/// run k > 0 is seeded apart from every case's run 0.
+pub fn case_runs(
+    id: usize,
+    family: Option<Family>,
+    seed: u64,
+    runs: usize,
+) -> Result<(String, Option<Term>, Vec<crate::simulate::Simulation>), BenchError> {
     let case = build_case(id, family, seed, &PhysicsModel::paper())?;
-    let sim = simulate(&case.scenario, seed.wrapping_add(id as u64))?;
-    Ok((case.profile, case.hidden, sim))
+    let sims = (0..runs as u64)
+        .map(|k| {
+            let s = seed.wrapping_add(id as u64) ^ k.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+            simulate(&case.scenario, s)
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok((case.profile, case.hidden, sims))
 }
 
 /// The benchmark's case number of the `k`-th case of `family` with `per_term` cases per
@@ -852,6 +870,29 @@ mod tests {
             }
         }
         assert!(concealed >= 7, "{concealed} of 8 concealed");
+    }
+
+    /// A case's second run is the same gyro in the chamber again: the same thermal history
+    /// and noise-free bias, its own noise; its first run is the benchmark's recording.
+    #[test]
+    fn a_case_run_again_differs_in_its_noise_only() {
+        let (profile, hidden, runs) = case_runs(42, Some(Family::Hysteresis), 7, 2).expect("runs");
+        let (p0, h0, sim) = case_simulation(42, Some(Family::Hysteresis), 7).expect("case");
+        assert_eq!((&profile, &hidden), (&p0, &h0));
+        assert_eq!(runs[0].recording, sim.recording);
+        let (a, b) = (&runs[0], &runs[1]);
+        assert_eq!(a.truth.bias_dph, b.truth.bias_dph);
+        assert_eq!(a.truth.body_c, b.truth.body_c);
+        assert_eq!(a.truth.scenario, b.truth.scenario);
+        assert_ne!(a.truth.seed, b.truth.seed);
+        let same = a
+            .recording
+            .rate_dph
+            .iter()
+            .zip(&b.recording.rate_dph)
+            .filter(|(x, y)| x == y)
+            .count();
+        assert!(same < a.recording.len() / 10, "{same} equal rate samples");
     }
 
     /// σ of 100 s means from the noise parameters against a long simulation of the noise.
