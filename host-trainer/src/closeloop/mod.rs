@@ -267,21 +267,35 @@ pub struct Scored {
     pub train_rms_dph: f64,
     /// HELD-OUT 100 s stability of the output compensated in f64 on the host features, °/h.
     pub test_b100_dph: f64,
+    /// First held-out sample (the training part is the samples before it).
+    pub test_from: usize,
+    /// The f64 model's correction at each held-out sample, °/h (what `test_b100_dph`
+    /// subtracts from the recorded rate).
+    pub test_correction_dph: Vec<f64>,
     /// The same through the board's f32 `Compensator` (up to five features), °/h.
     pub board_b100_dph: Option<f64>,
 }
 
-/// Trains on the samples up to `train_to_s` with `feats` and scores the rest; `provenance`
-/// names the recording and the command in the model file. With a budget, the model is the
-/// fixed-size LS-SVM of at most that many support vectors (the board table's capacity),
-/// with the σ and c cross-validated for the exact one.
-pub fn train_and_score(
+/// A model trained and its (σ, c) chosen, not yet judged.
+struct Fitted {
+    tuned: Tuned,
+    point: CvPoint,
+    model: ModelFile,
+    board_deviation_dph: f64,
+    dt_s: f64,
+}
+
+/// Trains on the samples of `rec` up to `train_to_s` with `inputs`; `provenance` names the
+/// recording and the command in the model file. With a budget, the model is the fixed-size
+/// LS-SVM of at most that many support vectors (the board table's capacity), with the σ and
+/// c cross-validated for the exact one.
+fn fit(
     rec: &Recording,
     train_to_s: f64,
     inputs: &Inputs,
     protocol: &Protocol,
     provenance: &Provenance,
-) -> anyhow::Result<Scored> {
+) -> anyhow::Result<Fitted> {
     let (grid, budget) = (&protocol.grid, protocol.budget);
     let (feats, linear) = (&inputs.features, &inputs.linear);
     let sel = RecordingSelection {
@@ -359,29 +373,74 @@ pub fn train_and_score(
             export::F32_BUDGET_DPH
         )
     })?;
-    let (sigma, c, cv_rms_dph) = (point.sigma, point.c, point.cv_rms_dph);
-    let series = features::compute(
-        feats,
-        &rec.temp_c,
-        &rec.time_s,
-        pipeline::RATE_TAU_S,
-        data.dt_s,
-    )?;
+    Ok(Fitted {
+        tuned,
+        point,
+        model,
+        board_deviation_dph,
+        dt_s: data.dt_s,
+    })
+}
+
+/// Trains on the samples up to `train_to_s` with `inputs` and scores the rest of the same
+/// recording (see [`train_and_score_on`]).
+pub fn train_and_score(
+    rec: &Recording,
+    train_to_s: f64,
+    inputs: &Inputs,
+    protocol: &Protocol,
+    provenance: &Provenance,
+) -> anyhow::Result<Scored> {
+    let fitted = fit(rec, train_to_s, inputs, protocol, provenance)?;
     let split = rec.time_s.partition_point(|t| *t <= train_to_s);
+    judge(fitted, inputs, rec, split)
+}
+
+/// Trains on all of `calibration` with `inputs` and scores all of `test`: a later recording
+/// of the same gyro, which the training (and any diagnosis of `calibration`) never saw.
+pub fn train_and_score_on(
+    calibration: &Recording,
+    test: &Recording,
+    inputs: &Inputs,
+    protocol: &Protocol,
+    provenance: &Provenance,
+) -> anyhow::Result<Scored> {
+    let end = calibration.time_s.last().copied().unwrap_or(f64::NAN);
+    let fitted = fit(calibration, end, inputs, protocol, provenance)?;
+    judge(fitted, inputs, test, 0)
+}
+
+/// Scores a fitted model on the samples of `rec` from `split` on.
+fn judge(fitted: Fitted, inputs: &Inputs, rec: &Recording, split: usize) -> anyhow::Result<Scored> {
+    let Fitted {
+        tuned,
+        point,
+        model,
+        board_deviation_dph,
+        dt_s,
+    } = fitted;
+    let feats = &inputs.features;
+    let (sigma, c, cv_rms_dph) = (point.sigma, point.c, point.cv_rms_dph);
+    let series = features::compute(feats, &rec.temp_c, &rec.time_s, pipeline::RATE_TAU_S, dt_s)?;
     anyhow::ensure!(
         rec.len() >= split + 2 * pipeline::TRAIN_BLOCK,
         "less than two 100 s windows after the training part"
     );
     // Inputs clamped into the trained range, as the board clamps them.
-    let host: Vec<f64> = (split..rec.len())
+    let test_correction_dph: Vec<f64> = (split..rec.len())
         .map(|k| {
             let x: Vec<f64> = series.rows[k]
                 .iter()
                 .zip(model.input_lo.iter().zip(&model.input_hi))
                 .map(|(v, (lo, hi))| v.clamp(*lo, *hi))
                 .collect();
-            rec.rate_dph[k] - model.correction_dph(&x)
+            model.correction_dph(&x)
         })
+        .collect();
+    let host: Vec<f64> = rec.rate_dph[split..]
+        .iter()
+        .zip(&test_correction_dph)
+        .map(|(r, c)| r - c)
         .collect();
     let test_b100_dph =
         bias_stability_gapless_dph(&rec.time_s[split..], &host, pipeline::TRAIN_BLOCK)
@@ -403,6 +462,8 @@ pub fn train_and_score(
         tuned,
         model,
         test_b100_dph,
+        test_from: split,
+        test_correction_dph,
         board_b100_dph,
     })
 }
