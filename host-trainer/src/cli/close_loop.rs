@@ -7,20 +7,27 @@ use std::path::PathBuf;
 use anyhow::Context as _;
 
 use crate::closeloop::{
-    self, augmented_features, first_cycle_end_s, train_and_score, Inputs, Protocol,
+    self, augmented_features, first_cycle_end_s, train_and_score, train_and_score_on, Inputs,
+    Protocol,
 };
-use crate::diagnose::{diagnose, Diagnosis, Options, PhysicsModel};
+use crate::diagnose::{diagnose, DiagnoseError, Diagnosis, Options, PhysicsModel};
 use crate::model::Provenance;
 use crate::recording::Recording;
 
 /// Arguments of `rlg close-loop`.
 #[derive(Debug, clap::Args)]
 pub struct CloseLoopArgs {
-    /// Recording (CSV).
+    /// Calibration recording (CSV).
     #[arg(long)]
     pub recording: PathBuf,
-    /// A diagnosis of it (`rlg diagnose --json`); default: diagnose it against the paper's
-    /// model now.
+    /// A later recording of the same gyro to judge the models on: the diagnosis and the
+    /// training then use all of `--recording`. Without it, the later cycles of `--recording`
+    /// are held out (see `--train-to-s`).
+    #[arg(long, conflicts_with = "train_to_s")]
+    pub test: Option<PathBuf>,
+    /// A diagnosis of the training data (`rlg diagnose --json`); default: diagnose the
+    /// training data against the paper's model now. A diagnosis that saw the held-out part
+    /// makes the held-out comparison optimistic.
     #[arg(long)]
     pub diagnosis: Option<PathBuf>,
     /// Train on the samples up to this time, s (default: the end of the first temperature
@@ -48,37 +55,72 @@ fn read_diagnosis(p: &PathBuf) -> anyhow::Result<Diagnosis> {
 pub fn run(args: &CloseLoopArgs, command_line: &str) -> anyhow::Result<()> {
     let rec = Recording::read_csv(&args.recording)?;
     super::warn_units(&args.recording, &rec);
-    let d = match &args.diagnosis {
-        Some(p) => read_diagnosis(p)?,
-        None => diagnose(&rec, &PhysicsModel::paper(), &Options::default())?,
+    let test = match &args.test {
+        Some(p) => {
+            let t = Recording::read_csv(p)?;
+            super::warn_units(p, &t);
+            Some(t)
+        }
+        None => None,
     };
-    let (feats, suggestions) = augmented_features(&d);
+    let end = match (&test, args.train_to_s) {
+        (Some(_), _) => rec.time_s.last().copied().unwrap_or(f64::NAN),
+        (None, Some(t)) => t,
+        (None, None) => first_cycle_end_s(&rec)?,
+    };
+    anyhow::ensure!(end.is_finite(), "--train-to-s must be finite");
+    // The diagnosis sees the training data only, so that the held-out data judge a
+    // pipeline (the feature, its parameter, the model) that never saw them.
+    let train_part = rec.head(rec.time_s.partition_point(|t| *t <= end));
+    let d = match &args.diagnosis {
+        Some(p) => Some(read_diagnosis(p)?),
+        None => match diagnose(&train_part, &PhysicsModel::paper(), &Options::default()) {
+            Ok(d) => Some(d),
+            Err(e @ DiagnoseError::TooShort { .. }) => {
+                println!(
+                    "the training data cannot be diagnosed ({e}): the [T, dT/dt] model only; \
+                     give a longer --train-to-s or a later recording with --test"
+                );
+                None
+            }
+            Err(e) => return Err(e.into()),
+        },
+    };
+    let (feats, suggestions) = d
+        .as_ref()
+        .map_or_else(|| (Inputs::base(), Vec::new()), augmented_features);
     for s in &suggestions {
         match s.feature {
             Some(f) => println!("{} → feature {f} ({:?}): {}", s.mechanism, s.role, s.reason),
             None => println!("{} → no feature: {}", s.mechanism, s.reason),
         }
     }
-    if suggestions.is_empty() {
+    if let (Some(d), true) = (&d, suggestions.is_empty()) {
         println!("the diagnosis names no missing mechanism ({:?})", d.verdict);
     }
-    let end = match args.train_to_s {
-        Some(t) => t,
-        None => first_cycle_end_s(&rec)?,
-    };
-    anyhow::ensure!(end.is_finite(), "--train-to-s must be finite");
     let protocol = Protocol {
         budget: Some(args.budget),
         ..Protocol::default()
     };
     let prov = Provenance::from_file(&args.recording, command_line)?;
-    let base = train_and_score(&rec, end, &Inputs::base(), &protocol, &prov)?;
+    let score = |inputs: &Inputs| match &test {
+        Some(t) => train_and_score_on(&rec, t, inputs, &protocol, &prov),
+        None => train_and_score(&rec, end, inputs, &protocol, &prov),
+    };
+    let base = score(&Inputs::base())?;
     let aug = if feats != Inputs::base() {
-        train_and_score(&rec, end, &feats, &protocol, &prov)?
+        score(&feats)?
     } else {
         base.clone()
     };
-    println!("trained on t ≤ {end:.0} s, held out the rest (100 s stability, °/h):");
+    match &args.test {
+        Some(p) => println!(
+            "trained on all of {}, judged on {} (100 s stability, °/h):",
+            args.recording.display(),
+            p.display()
+        ),
+        None => println!("trained on t ≤ {end:.0} s, held out the rest (100 s stability, °/h):"),
+    }
     for (name, s) in [("[T, dT/dt]", &base), ("augmented", &aug)] {
         let f = s.inputs.describe();
         println!(
