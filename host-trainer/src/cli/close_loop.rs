@@ -161,9 +161,10 @@ pub fn run(args: &CloseLoopArgs, command_line: &str) -> anyhow::Result<()> {
 /// Arguments of `rlg benchmark-close-loop`.
 #[derive(Debug, clap::Args)]
 pub struct BenchmarkCloseLoopArgs {
-    /// Master seed of the benchmark (as `rlg benchmark-diagnose --seed`).
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
+    /// Master seeds of the benchmark (each as `rlg benchmark-diagnose --seed`), comma
+    /// separated: the cases of every seed are pooled in the summary.
+    #[arg(long, value_delimiter = ',', default_value = "1")]
+    pub seed: Vec<u64>,
     /// Cases per hidden mechanism (the diagnosis benchmark uses 20).
     #[arg(long, default_value_t = 20)]
     pub per_term: usize,
@@ -175,7 +176,7 @@ pub struct BenchmarkCloseLoopArgs {
 /// Runs `rlg benchmark-close-loop`.
 pub fn run_benchmark(args: &BenchmarkCloseLoopArgs) -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
-    let cases = closeloop::bench::run(args.seed, args.per_term)?;
+    let cases = closeloop::bench::run(&args.seed, args.per_term)?;
     let md = closeloop::bench::report_markdown(&cases);
     print!("{md}");
     println!(

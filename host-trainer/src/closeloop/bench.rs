@@ -60,6 +60,8 @@ pub struct Outcome {
 /// One benchmark recording through the close loop.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LoopCase {
+    /// Master seed of the benchmark the case belongs to.
+    pub seed: u64,
     /// Benchmark case number.
     pub id: usize,
     /// Hidden mechanism.
@@ -135,6 +137,7 @@ fn run_case(id: usize, fam: Family, seed: u64) -> anyhow::Result<LoopCase> {
     let oracle = train(&oracle_inputs)?;
     let o = |s: &Scored| outcome(s, &test.truth.bias_dph, &test.recording.time_s);
     Ok(LoopCase {
+        seed,
         id,
         truth: fam.name().to_string(),
         profile,
@@ -145,14 +148,18 @@ fn run_case(id: usize, fam: Family, seed: u64) -> anyhow::Result<LoopCase> {
     })
 }
 
-/// Runs the `per_term` benchmark cases of each family in [`FAMILIES`] (master seed `seed`).
-pub fn run(seed: u64, per_term: usize) -> anyhow::Result<Vec<LoopCase>> {
-    let plan: Vec<(usize, Family)> = FAMILIES
+/// Runs the `per_term` benchmark cases of each family in [`FAMILIES`] for each master seed.
+pub fn run(seeds: &[u64], per_term: usize) -> anyhow::Result<Vec<LoopCase>> {
+    let plan: Vec<(u64, usize, Family)> = seeds
         .iter()
-        .flat_map(|&f| (0..per_term).map(move |k| (case_id(f, k, per_term), f)))
+        .flat_map(|&s| {
+            FAMILIES
+                .iter()
+                .flat_map(move |&f| (0..per_term).map(move |k| (s, case_id(f, k, per_term), f)))
+        })
         .collect();
     plan.into_par_iter()
-        .map(|(id, f)| run_case(id, f, seed))
+        .map(|(s, id, f)| run_case(id, f, s))
         .collect()
 }
 
@@ -288,14 +295,15 @@ pub fn report_markdown(cases: &[LoopCase]) -> String {
         }
     }
     s.push_str(
-        "\n| case | hidden | profile | diagnosed | feature added | adopted | model | σ, c | CV rms (°/h) | test 100 s stability (°/h) | model error (°/h) |\n\
+        "\n| seed, case | hidden | profile | diagnosed | feature added | adopted | model | σ, c | CV rms (°/h) | test 100 s stability (°/h) | model error (°/h) |\n\
          |---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for c in cases {
         for (m, (name, x)) in MODELS.iter().zip(&c.outcomes).enumerate() {
             let head = if m == 0 {
                 format!(
-                    "| {} | {} | {} | {} | {} | {} ",
+                    "| {}, {} | {} | {} | {} | {} | {} ",
+                    c.seed,
                     c.id,
                     c.truth,
                     c.profile,
@@ -356,6 +364,7 @@ mod tests {
     #[test]
     fn summary_counts_the_chosen_model_and_the_always_augmented_one() {
         let case = |id, adopted, aug: f64| LoopCase {
+            seed: 1,
             id,
             truth: "hysteresis".to_string(),
             profile: "p".to_string(),

@@ -1,7 +1,8 @@
 //! From a diagnosis to the board: each missing mechanism the diagnosis names becomes the
 //! recursive compensation feature that carries its physics (`compensator_core::features`),
-//! the LS-SVM is retrained on the augmented inputs, and both models are judged on held-out
-//! cycles.
+//! the LS-SVM is retrained on the augmented inputs, and both models are judged on data that
+//! neither the diagnosis nor the training saw: a later recording of the same gyro
+//! ([`train_and_score_on`]), or the later cycles of one recording ([`train_and_score`]).
 //!
 //! | mechanism (diagnosis) | feature on the board | role | why |
 //! |---|---|---|---|
