@@ -19,6 +19,10 @@ pub struct BenchmarkDiagnoseArgs {
     /// Keep the recordings and truth sidecars.
     #[arg(long)]
     pub keep: bool,
+    /// False-alarm probability of the diagnosis' significance test (default: the
+    /// diagnosis' own); the report adds the verdicts at every smaller α of 0.25 … 5 %.
+    #[arg(long)]
+    pub alpha: Option<f64>,
 }
 
 /// Runs the subcommand.
@@ -29,6 +33,13 @@ pub fn run(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
         BenchOptions::full(args.seed)
     };
     opts.keep = args.keep;
+    if let Some(a) = args.alpha {
+        anyhow::ensure!(
+            a > 0.0 && a < 1.0,
+            "--alpha must lie strictly between 0 and 1, got {a}"
+        );
+        opts.alpha = a;
+    }
     let t0 = std::time::Instant::now();
     let results = run_benchmark(&opts, &args.out)?;
     let md = report_markdown(&results);

@@ -22,6 +22,9 @@ pub struct DiagnoseArgs {
     /// Bootstrap replicates of the noise model.
     #[arg(long, default_value_t = 400)]
     pub bootstrap: usize,
+    /// False-alarm probability per recording of the significance test.
+    #[arg(long, default_value_t = Options::default().alpha)]
+    pub alpha: f64,
 }
 
 /// Runs the subcommand.
@@ -36,8 +39,21 @@ pub fn run(args: &DiagnoseArgs) -> anyhow::Result<()> {
         }
         None => PhysicsModel::paper(),
     };
+    anyhow::ensure!(
+        args.alpha > 0.0 && args.alpha < 1.0,
+        "--alpha must lie strictly between 0 and 1, got {}",
+        args.alpha
+    );
+    let need = (1.0 / args.alpha).ceil();
+    anyhow::ensure!(
+        args.bootstrap as f64 >= need,
+        "--bootstrap {} is too few for --alpha {}: its quantile needs at least {need} replicates",
+        args.bootstrap,
+        args.alpha
+    );
     let opts = Options {
         bootstrap: args.bootstrap,
+        alpha: args.alpha,
         ..Options::default()
     };
     let d = diagnose(&rec, &model, &opts)?;

@@ -47,6 +47,8 @@ pub struct BenchOptions {
     pub nulls: usize,
     /// Keep the recordings and sidecars in the output directory.
     pub keep: bool,
+    /// False-alarm probability of the diagnosis' significance test.
+    pub alpha: f64,
 }
 
 impl BenchOptions {
@@ -57,6 +59,7 @@ impl BenchOptions {
             per_term: 20,
             nulls: 100,
             keep: false,
+            alpha: Options::default().alpha,
         }
     }
 
@@ -67,6 +70,7 @@ impl BenchOptions {
             per_term: 2,
             nulls: 8,
             keep: false,
+            alpha: Options::default().alpha,
         }
     }
 }
@@ -107,6 +111,46 @@ pub struct CaseResult {
     pub seconds: f64,
     /// Best candidate's ΔBIC and its bootstrap threshold (the evidence of the verdict).
     pub best_delta_bic: (String, f64, f64),
+    /// Bootstrap p-values behind the verdict: the best candidate's, the reported finding's
+    /// (if any) and the generic structure test's. With them [`CaseResult::predicted_at`]
+    /// gives the verdict at any α up to the one the benchmark ran at.
+    #[serde(default)]
+    pub p_values: PValues,
+    /// The α the diagnosis ran at.
+    #[serde(default)]
+    pub alpha: f64,
+}
+
+/// See [`CaseResult::p_values`].
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PValues {
+    /// The most significant candidate's p-value.
+    pub best: f64,
+    /// The finding's p-value (None: no finding).
+    pub finding: Option<f64>,
+    /// The generic structure test's p-value.
+    pub structure: f64,
+}
+
+impl CaseResult {
+    /// The verdict the diagnosis would give at a smaller false-alarm probability `alpha`
+    /// (for `alpha` ≥ the run's α, the run's verdict). Exact up to the bootstrap's
+    /// resolution: candidates are significant in the order of their ΔBIC, so at a smaller α
+    /// the finding is the run's finding if its p-value is at most α, and otherwise there is
+    /// none (every candidate before it failed its held-out check).
+    pub fn predicted_at(&self, alpha: f64) -> String {
+        if alpha >= self.alpha {
+            return self.predicted.clone();
+        }
+        let p = &self.p_values;
+        if p.finding.is_some_and(|v| v <= alpha) {
+            self.predicted.clone()
+        } else if p.best <= alpha || p.structure <= alpha {
+            "unexplained".into()
+        } else {
+            "none".into()
+        }
+    }
 }
 
 /// Why the benchmark failed.
@@ -633,6 +677,18 @@ fn score(
                     d.evidence.delta_bic_threshold,
                 )
             }),
+        p_values: PValues {
+            best: d.evidence.candidates.first().map_or(1.0, |c| c.p_value),
+            finding: d.findings.first().and_then(|f| {
+                d.evidence
+                    .candidates
+                    .iter()
+                    .find(|c| c.mechanism == f.mechanism)
+                    .map(|c| c.p_value)
+            }),
+            structure: d.evidence.structure_p_value,
+        },
+        alpha: 0.0,
     };
     let Some(h) = hidden else { return Ok(r) };
     let e = effect(&h, &truth);
@@ -708,9 +764,17 @@ pub fn run_benchmark(opts: &BenchOptions, out_dir: &Path) -> Result<Vec<CaseResu
             // The diagnosis sees the CSV only.
             let rec = Recording::read_csv(&csv)?;
             let t0 = std::time::Instant::now();
-            let d = diagnose(&rec, &model, &Options::default())?;
+            let dopts = Options {
+                alpha: opts.alpha,
+                ..Options::default()
+            };
+            let d = diagnose(&rec, &model, &dopts)?;
             let secs = t0.elapsed().as_secs_f64();
-            let r = score(id, case.profile, &rec, &truth_path(&csv), &d, &model, secs);
+            let r =
+                score(id, case.profile, &rec, &truth_path(&csv), &d, &model, secs).map(|mut r| {
+                    r.alpha = opts.alpha;
+                    r
+                });
             if !opts.keep {
                 let _ = std::fs::remove_file(&csv);
                 let _ = std::fs::remove_file(truth_path(&csv));
@@ -808,6 +872,45 @@ pub fn report_markdown(results: &[CaseResult]) -> String {
         secs.get(secs.len() / 2).copied().unwrap_or(0.0),
         secs.last().copied().unwrap_or(0.0)
     );
+    // Operating curve: the verdicts at smaller false-alarm probabilities.
+    let run_alpha = results.iter().map(|r| r.alpha).fold(0.0, f64::max);
+    let alphas: Vec<f64> = [0.0025, 0.005, 0.01, 0.02, 0.03, 0.05]
+        .into_iter()
+        .filter(|a| *a <= run_alpha + 1e-12)
+        .collect();
+    if alphas.len() > 1 {
+        let _ = writeln!(
+            o,
+            "\nOperating curve (verdicts at a smaller α from the bootstrap p-values; the run's α = {:.1} %):\n",
+            100.0 * run_alpha
+        );
+        let _ = writeln!(
+            o,
+            "| α | false alarms | top-1 D 3–5 | D 5–6 | D ≥ 6 |\n|---|---|---|---|---|"
+        );
+        for a in alphas {
+            let fa = nulls.iter().filter(|r| r.predicted_at(a) != "none").count();
+            let band = |lo: f64, hi: f64| {
+                let set: Vec<&&CaseResult> = hidden
+                    .iter()
+                    .filter(|r| r.detectability >= lo && r.detectability < hi)
+                    .collect();
+                pct(
+                    set.iter().filter(|r| r.predicted_at(a) == r.truth).count(),
+                    set.len(),
+                )
+            };
+            let _ = writeln!(
+                o,
+                "| {:.2} % | {} | {} | {} | {} |",
+                100.0 * a,
+                pct(fa, nulls.len()),
+                band(3.0, 5.0),
+                band(5.0, 6.0),
+                band(6.0, f64::INFINITY)
+            );
+        }
+    }
     // Confusion matrix.
     let mut cols: Vec<String> = Family::ALL.iter().map(|f| f.name().to_string()).collect();
     cols.push("none".into());
@@ -917,6 +1020,50 @@ mod tests {
     /// floors, below the targets (measured 2026-11-23 at seed 1: 13 of 16 named, 1 of 8
     /// false alarms): at least 6 of 16 hidden terms named and at most 2 of 8 alarms without
     /// one.
+    /// The verdict at a smaller α: the finding survives while its own p-value is within α,
+    /// then the verdict falls to `unexplained` (something else still significant) or
+    /// `none`; at or above the run's α it is the run's verdict.
+    #[test]
+    fn verdict_at_a_smaller_alpha() {
+        let mut r = CaseResult {
+            id: 0,
+            profile: String::new(),
+            truth: "aging".into(),
+            detectability: 4.0,
+            detectability_marginal: 0.0,
+            peak_over_sigma1: 0.1,
+            energy_in_span: 0.8,
+            predicted: "aging".into(),
+            param_ok: None,
+            param_rel_err: None,
+            param: None,
+            iou: None,
+            gain_fraction: None,
+            seconds: 0.0,
+            best_delta_bic: (String::new(), 0.0, 0.0),
+            p_values: PValues {
+                best: 0.004,
+                finding: Some(0.02),
+                structure: 0.3,
+            },
+            alpha: 0.05,
+        };
+        assert_eq!(r.predicted_at(0.05), "aging");
+        assert_eq!(r.predicted_at(0.1), "aging");
+        assert_eq!(r.predicted_at(0.02), "aging");
+        assert_eq!(r.predicted_at(0.01), "unexplained");
+        assert_eq!(r.predicted_at(0.003), "none");
+        r.p_values.structure = 0.001;
+        assert_eq!(r.predicted_at(0.003), "unexplained");
+        r.predicted = "none".into();
+        r.p_values = PValues {
+            best: 0.2,
+            finding: None,
+            structure: 0.5,
+        };
+        assert_eq!(r.predicted_at(0.01), "none");
+    }
+
     #[test]
     #[ignore = "release-mode benchmark"]
     fn quick_benchmark() {

@@ -169,6 +169,9 @@ pub struct Evidence {
     pub structure_threshold: f64,
     /// Generic-structure ΔBIC of the baseline residual.
     pub structure_delta_bic: f64,
+    /// Its bootstrap p-value (the share of noise replicates with a ΔBIC at least as low).
+    #[serde(default)]
+    pub structure_p_value: f64,
     /// Best ΔBIC of each candidate family (most negative first) with its held-out gain
     /// (reduction of the held-out sum of squares of 100 s means, (°/h)²).
     pub candidates: Vec<CandidateScore>,
@@ -185,6 +188,11 @@ pub struct CandidateScore {
     /// families at present).
     #[serde(default)]
     pub threshold: f64,
+    /// Bootstrap p-value of its ΔBIC against the null distribution of the best ΔBIC over
+    /// all families and grid points (look-elsewhere included): it is significant exactly
+    /// when this is at most α (up to the bootstrap's resolution, 1/(replicates + 1)).
+    #[serde(default)]
+    pub p_value: f64,
     /// Held-out gain, (°/h)² (evaluated only for significant candidates, else 0).
     pub heldout_gain: f64,
 }

@@ -236,7 +236,7 @@ fn bootstrap(
     points: &[Point],
     prep: &Prepared,
     opts: &Options,
-) -> (f64, f64) {
+) -> (NullDist, NullDist) {
     let reps: Vec<(f64, f64)> = (0..opts.bootstrap.max(1))
         .into_par_iter()
         .map(|k| {
@@ -261,14 +261,32 @@ fn bootstrap(
             (best, g)
         })
         .collect();
-    let q = |mut v: Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v[((opts.alpha * v.len() as f64).floor() as usize).min(v.len() - 1)]
-    };
     (
-        q(reps.iter().map(|r| r.0).collect()),
-        q(reps.iter().map(|r| r.1).collect()),
+        NullDist::new(reps.iter().map(|r| r.0).collect()),
+        NullDist::new(reps.iter().map(|r| r.1).collect()),
     )
+}
+
+/// A bootstrap null distribution of a ΔBIC (more negative = stronger evidence).
+struct NullDist(Vec<f64>);
+
+impl NullDist {
+    fn new(mut v: Vec<f64>) -> Self {
+        v.sort_by(f64::total_cmp);
+        Self(v)
+    }
+
+    /// The threshold of a test at false-alarm probability `alpha`: the `alpha` quantile.
+    fn quantile(&self, alpha: f64) -> f64 {
+        let n = self.0.len();
+        self.0[((alpha * n as f64).floor() as usize).min(n - 1)]
+    }
+
+    /// Bootstrap p-value of an observed ΔBIC: (1 + #replicates at least as extreme)/(B + 1).
+    fn p_value(&self, x: f64) -> f64 {
+        let k = self.0.partition_point(|v| *v <= x);
+        (1 + k) as f64 / (self.0.len() + 1) as f64
+    }
 }
 
 /// Piecewise-constant columns in time (12 chunks) and in temperature (8 bands): a generic
@@ -424,7 +442,11 @@ pub(crate) fn run(
         .map_or_else(|| Whitener::Ar(ar_fit.clone()), Whitener::Gls);
     let s = scan(&ar, &base_b, &prep.y_b, &points, &generic);
 
-    let (thr_all, thr_gen) = bootstrap(&ar, &gyro, &s, &points, prep, opts);
+    let (null_best, null_gen) = bootstrap(&ar, &gyro, &s, &points, prep, opts);
+    let (thr_all, thr_gen) = (
+        null_best.quantile(opts.alpha),
+        null_gen.quantile(opts.alpha),
+    );
     let thr = |_: Family| thr_all;
 
     // Best point of each family, most significant first.
@@ -456,6 +478,7 @@ pub(crate) fn run(
             mechanism: f.name().to_string(),
             delta_bic: s.dbic[i],
             threshold: thr(f),
+            p_value: null_best.p_value(s.dbic[i]),
             heldout_gain: gain,
         });
     }
@@ -541,6 +564,7 @@ pub(crate) fn run(
             delta_bic_threshold: best.first().map_or(f64::NEG_INFINITY, |&(f, _)| thr(f)),
             structure_threshold: thr_gen,
             structure_delta_bic: s.gen_dbic,
+            structure_p_value: null_gen.p_value(s.gen_dbic),
             candidates: scores,
         },
     })
@@ -604,18 +628,61 @@ fn refine(
     let mut coef = s.coef[i].clone();
     let mut cp = s.cperp[i].clone();
     if matches!(f, Family::ModeHop) {
-        // 2-D grid: keep the grid point; profile each axis.
-        let inside: Vec<usize> = idx
+        // 2-D grid: a fine local grid around the best coarse point (temperature ±1 coarse
+        // step in sixths, switching hysteresis 0…4.5 °C in 0.25 °C), then the profile of
+        // each axis over the coarse and fine points. On the coarse grid alone (hysteresis
+        // 0, 0.5, 1, 2, 4 °C) the step came out up to 42 % off at ten times the benchmark's
+        // detectability.
+        let all_t: Vec<f64> = idx.iter().map(|&j| points[j].nl[0]).collect();
+        let (t0, dt) = (nl[0], grid_step(&all_t, nl[0]));
+        let fine: Vec<Vec<f64>> = (-6..=6)
+            .flat_map(|a| {
+                (0..=18).map(move |b| vec![t0 + dt * f64::from(a) / 6.0, 0.25 * f64::from(b)])
+            })
+            .collect();
+        let yw = s.basis.residual(&ar.whiten(&prep.y_b));
+        let res: Vec<(f64, Vec<f64>, Vec<Vec<f64>>)> = fine
+            .par_iter()
+            .map(|p| {
+                let cpr: Vec<Vec<f64>> = f
+                    .columns(p, prep, model, mdrive, beta_b)?
+                    .iter()
+                    .map(|c| s.basis.residual(&ar.whiten(&prep.blocks(c))))
+                    .collect();
+                let (d, a) = added_fit(&cpr, &yw);
+                Ok((d, a, cpr))
+            })
+            .collect::<Result<_, DiagnoseError>>()?;
+        let mut best_d = s.drss[i];
+        if let Some(k) = (0..res.len()).max_by(|&a, &b| res[a].0.total_cmp(&res[b].0)) {
+            if res[k].0 > best_d {
+                best_d = res[k].0;
+                nl.clone_from(&fine[k]);
+                coef.clone_from(&res[k].1);
+                cp.clone_from(&res[k].2);
+            }
+        }
+        let inside: Vec<&[f64]> = idx
             .iter()
-            .copied()
-            .filter(|&j| s.drss[i] - s.drss[j] <= sigma2)
+            .filter(|&&j| best_d - s.drss[j] <= sigma2)
+            .map(|&j| &points[j].nl[..])
+            .chain(
+                fine.iter()
+                    .zip(&res)
+                    .filter(|(_, r)| best_d - r.0 <= sigma2)
+                    .map(|(p, _)| &p[..]),
+            )
             .collect();
         for (a, name) in nl_names(f).iter().enumerate() {
-            let vals: Vec<f64> = inside.iter().map(|&j| points[j].nl[a]).collect();
-            let all: Vec<f64> = idx.iter().map(|&j| points[j].nl[a]).collect();
+            let vals: Vec<f64> = inside.iter().map(|p| p[a]).collect();
             let (lo, hi) = minmax(&vals);
-            let step = grid_step(&all, nl[a]);
-            unc.insert((*name).to_string(), (0.5 * (hi - lo)).max(0.5 * step));
+            let step = [dt / 6.0, 0.25][a];
+            let half = if vals.is_empty() {
+                0.0
+            } else {
+                0.5 * (hi - lo)
+            };
+            unc.insert((*name).to_string(), half.max(0.5 * step));
         }
     } else if !nl.is_empty() {
         let vals: Vec<f64> = idx.iter().map(|&j| points[j].nl[0]).collect();
@@ -744,4 +811,31 @@ fn explain(
         before.bic,
         after.bic
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::NullDist;
+
+    /// The threshold at α is the α quantile of the replicates, and a ΔBIC below it has a
+    /// p-value of at most α (to the resolution 1/(B + 1)).
+    #[test]
+    fn null_quantile_and_p_value_agree() {
+        // Replicates −1, −2, …, −400 (ΔBIC; lower = more extreme).
+        let d = NullDist::new((1..=400).map(|k| -f64::from(k)).collect());
+        assert_eq!(d.quantile(0.01), -396.0);
+        assert_eq!(d.quantile(0.05), -380.0);
+        assert!((d.p_value(-396.5) - 5.0 / 401.0).abs() < 1e-12);
+        assert!(d.p_value(-396.5) <= 0.01 + 1.0 / 401.0);
+        assert!((d.p_value(-1000.0) - 1.0 / 401.0).abs() < 1e-12);
+        assert!((d.p_value(0.0) - 1.0).abs() < 1e-12);
+        for x in [-399.0, -390.0, -350.0, -10.0] {
+            let p = d.p_value(x);
+            for a in [0.01, 0.02, 0.05, 0.5] {
+                if x < d.quantile(a) {
+                    assert!(p <= a + 1.0 / 401.0, "x {x} p {p} a {a}");
+                }
+            }
+        }
+    }
 }
