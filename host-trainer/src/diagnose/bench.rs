@@ -130,6 +130,9 @@ pub struct PValues {
     pub finding: Option<f64>,
     /// The generic structure test's p-value.
     pub structure: f64,
+    /// The true family's p-value had it been the only family tested (None: nothing hidden).
+    #[serde(default)]
+    pub true_family_alone: Option<f64>,
 }
 
 impl CaseResult {
@@ -687,10 +690,17 @@ fn score(
                     .map(|c| c.p_value)
             }),
             structure: d.evidence.structure_p_value,
+            true_family_alone: None,
         },
         alpha: 0.0,
     };
     let Some(h) = hidden else { return Ok(r) };
+    r.p_values.true_family_alone = d
+        .evidence
+        .candidates
+        .iter()
+        .find(|c| c.mechanism == h.name())
+        .map(|c| c.p_value_alone);
     let e = effect(&h, &truth);
     let (dperp, e2, perp) = orthogonal_part(&prep, model, &e);
     r.detectability = detectability(&prep, model, &e, &truth.scenario.noise).unwrap_or(f64::NAN);
@@ -833,6 +843,37 @@ pub fn report_markdown(results: &[CaseResult]) -> String {
         "| key parameter within 20 %/25 % (of correct) | {} | ≥ 80 % |",
         pct(pok, correct.len())
     );
+    // What the diagnosis' own 1σ says it should reach: Σ P(|N(0, σᵢ)| ≤ tolᵢ), and how
+    // often the truth lies within 1σ and 2σ (68 % and 95 % if the σ are right).
+    let with_p: Vec<(f64, f64, f64, f64)> = correct
+        .iter()
+        .filter_map(|r| {
+            let (t, f, u) = r.param?;
+            let tol = Family::from_name(&r.truth)?.key_parameter().1;
+            Some((t, f, u, tol))
+        })
+        .filter(|(t, _, u, _)| *t != 0.0 && u.is_finite() && *u > 0.0)
+        .collect();
+    if !with_p.is_empty() {
+        let m = with_p.len() as f64;
+        let expected: f64 = with_p
+            .iter()
+            .map(|(t, _, u, tol)| statrs::function::erf::erf(tol * t.abs() / u / 2f64.sqrt()))
+            .sum();
+        let within = |k: f64| {
+            with_p
+                .iter()
+                .filter(|(t, f, u, _)| (f - t).abs() <= k * u)
+                .count() as f64
+        };
+        let _ = writeln!(
+            o,
+            "| key parameter: share within tolerance its reported 1σ predicts; truth within 1σ / 2σ | {:.0} %; {:.0} % / {:.0} % | (68 % / 95 %) |",
+            100.0 * expected / m,
+            100.0 * within(1.0) / m,
+            100.0 * within(2.0) / m
+        );
+    }
     let iok = correct
         .iter()
         .filter(|r| r.iou.is_some_and(|v| v >= 0.5))
@@ -886,7 +927,7 @@ pub fn report_markdown(results: &[CaseResult]) -> String {
         );
         let _ = writeln!(
             o,
-            "| α | false alarms | top-1 D 3–5 | D 5–6 | D ≥ 6 |\n|---|---|---|---|---|"
+            "| α | false alarms | top-1 D 3–5 | D 5–6 | D ≥ 6 | D 3–5 found if the family were known |\n|---|---|---|---|---|---|"
         );
         for a in alphas {
             let fa = nulls.iter().filter(|r| r.predicted_at(a) != "none").count();
@@ -900,14 +941,23 @@ pub fn report_markdown(results: &[CaseResult]) -> String {
                     set.len(),
                 )
             };
+            let low: Vec<&&CaseResult> = hidden
+                .iter()
+                .filter(|r| r.detectability >= 3.0 && r.detectability < 5.0)
+                .collect();
+            let known = low
+                .iter()
+                .filter(|r| r.p_values.true_family_alone.is_some_and(|p| p <= a))
+                .count();
             let _ = writeln!(
                 o,
-                "| {:.2} % | {} | {} | {} | {} |",
+                "| {:.2} % | {} | {} | {} | {} | {} |",
                 100.0 * a,
                 pct(fa, nulls.len()),
                 band(3.0, 5.0),
                 band(5.0, 6.0),
-                band(6.0, f64::INFINITY)
+                band(6.0, f64::INFINITY),
+                pct(known, low.len())
             );
         }
     }
@@ -1045,6 +1095,7 @@ mod tests {
                 best: 0.004,
                 finding: Some(0.02),
                 structure: 0.3,
+                true_family_alone: Some(0.001),
             },
             alpha: 0.05,
         };
@@ -1060,6 +1111,7 @@ mod tests {
             best: 0.2,
             finding: None,
             structure: 0.5,
+            true_family_alone: None,
         };
         assert_eq!(r.predicted_at(0.01), "none");
     }

@@ -57,6 +57,11 @@ impl Family {
         }
     }
 
+    /// Position in [`Family::ALL`].
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
     /// The family of a library term name.
     pub fn from_name(name: &str) -> Option<Family> {
         Family::ALL.into_iter().find(|f| f.name() == name)

@@ -83,7 +83,10 @@ impl Default for Options {
     fn default() -> Self {
         Self {
             bootstrap: 400,
-            alpha: 0.01,
+            // Chosen on the benchmark's design seeds 1 and 3 from the operating curve
+            // (`rlg benchmark-diagnose --alpha 0.05`): 3 false alarms in 200 recordings at
+            // 2 %, 6 at 3 %, 18 at 5 %; the target is ≤ 5 %. See the module README.
+            alpha: 0.02,
             seed: 0x5eed,
         }
     }
@@ -193,6 +196,11 @@ pub struct CandidateScore {
     /// when this is at most α (up to the bootstrap's resolution, 1/(replicates + 1)).
     #[serde(default)]
     pub p_value: f64,
+    /// Its p-value had this family been the only one tested (against the null of the best
+    /// ΔBIC over its own grid): what knowing in advance which physics to expect would buy.
+    /// Reported only; the verdict uses `p_value`.
+    #[serde(default)]
+    pub p_value_alone: f64,
     /// Held-out gain, (°/h)² (evaluated only for significant candidates, else 0).
     pub heldout_gain: f64,
 }
