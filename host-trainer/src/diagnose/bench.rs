@@ -1067,8 +1067,8 @@ mod tests {
 
     /// The quick benchmark end to end (release only: `cargo test --release -p host-trainer
     /// quick_benchmark -- --ignored`, run by the test command; 48 s on 2 cores). Regression
-    /// floors, below the targets (measured 2026-11-23 at seed 1: 13 of 16 named, 1 of 8
-    /// false alarms): at least 6 of 16 hidden terms named and at most 2 of 8 alarms without
+    /// floors, below the targets (measured 2026-11-23 at seed 1 and α 2 %: 14 of 16 named,
+    /// 1 of 8 false alarms): at least 6 of 16 hidden terms named and at most 2 of 8 alarms without
     /// one.
     /// The verdict at a smaller α: the finding survives while its own p-value is within α,
     /// then the verdict falls to `unexplained` (something else still significant) or
