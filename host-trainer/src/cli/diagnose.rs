@@ -19,6 +19,10 @@ pub struct DiagnoseArgs {
     /// Write the machine-readable result here (JSON).
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Write the figures into this directory: residual vs time with the located spans,
+    /// residual vs temperature by heating / cooling / hold, before / after (PNG).
+    #[arg(long)]
+    pub plots: Option<PathBuf>,
     /// Bootstrap replicates of the noise model.
     #[arg(long, default_value_t = 400)]
     pub bootstrap: usize,
@@ -77,6 +81,13 @@ pub fn run(args: &DiagnoseArgs) -> anyhow::Result<()> {
     if let Some(p) = &args.json {
         let text = serde_json::to_string_pretty(&d)?;
         crate::recording::write_atomic(p, text.as_bytes())?;
+    }
+    if let Some(dir) = &args.plots {
+        for p in crate::diagnose::plots::write(&d, dir)
+            .with_context(|| format!("drawing into {}", dir.display()))?
+        {
+            println!("figure: {}", p.display());
+        }
     }
     Ok(())
 }

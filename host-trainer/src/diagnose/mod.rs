@@ -24,6 +24,7 @@ pub mod candidates;
 mod linalg;
 pub mod locate;
 pub mod noise;
+pub mod plots;
 pub mod prepare;
 mod search;
 
@@ -150,6 +151,25 @@ pub struct Diagnosis {
     pub phases: Vec<Span>,
     /// Evidence behind the verdict.
     pub evidence: Evidence,
+    /// The 100 s means behind the plots ([`plots`]); not part of the JSON.
+    #[serde(skip)]
+    pub series: BlockSeries,
+}
+
+/// The recording's 100 s means and the model residuals the plots show.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BlockSeries {
+    /// Block centre times, s.
+    pub t_s: Vec<f64>,
+    /// Recorded temperature, °C.
+    pub temp_c: Vec<f64>,
+    /// dT/dt, °C/s.
+    pub dtemp_c_per_s: Vec<f64>,
+    /// Residual of the model as given (its linear parameters fitted), °/h.
+    pub baseline_resid_dph: Vec<f64>,
+    /// Residual with every finding added (non-linear parameters as found, amplitudes
+    /// refitted with the model's), °/h; equal to the baseline's when nothing was found.
+    pub final_resid_dph: Vec<f64>,
 }
 
 /// The numbers behind the verdict.
@@ -228,7 +248,27 @@ pub fn diagnose(
             _ => break,
         }
     }
+    let mut full = model.clone();
+    full.terms
+        .extend(d.findings.iter().filter_map(Finding::term));
+    d.series = BlockSeries {
+        t_s: prep.t_b.clone(),
+        temp_c: prep.temp_b.clone(),
+        dtemp_c_per_s: prep.dtemp_b.clone(),
+        baseline_resid_dph: block_residual(&prep, model)?,
+        final_resid_dph: block_residual(&prep, &full)?,
+    };
     Ok(d)
+}
+
+/// Residual of the 100 s means after a least-squares fit of `model`'s linear parameters.
+fn block_residual(prep: &Prepared, model: &PhysicsModel) -> Result<Vec<f64>, DiagnoseError> {
+    let drive = prepare::model_drive(model, prep)?;
+    let cols: Vec<Vec<f64>> = prepare::baseline_columns(model, &drive)
+        .iter()
+        .map(|c| prep.blocks(&c.values))
+        .collect();
+    Ok(linalg::Basis::new(&cols).residual(&prep.y_b))
 }
 
 /// The most findings one diagnosis reports.

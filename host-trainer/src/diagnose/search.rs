@@ -584,6 +584,7 @@ pub(crate) fn run(
             structure_p_value: nulls.structure.p_value(s.gen_dbic),
             candidates: scores,
         },
+        series: super::BlockSeries::default(),
     })
 }
 

@@ -84,6 +84,48 @@ fn injected_hysteresis_is_found() {
     assert!(f.improved.b100_dph < d.baseline.b100_dph);
 }
 
+/// The plot series: the residual with the finding added is smaller than without it, the
+/// series are as long as the blocks, and the three figures are written as PNG files.
+#[test]
+fn plots_show_the_finding_and_are_written() {
+    let d = run(
+        vec![Term::Hysteresis {
+            width_c: 8.0,
+            height_dph: 0.004,
+        }],
+        13,
+    );
+    assert_eq!(d.verdict, Verdict::MissingPhysics);
+    let s = &d.series;
+    let n = s.t_s.len();
+    assert!(n >= prepare::MIN_BLOCKS);
+    for v in [
+        &s.temp_c,
+        &s.dtemp_c_per_s,
+        &s.baseline_resid_dph,
+        &s.final_resid_dph,
+    ] {
+        assert_eq!(v.len(), n);
+    }
+    let ss = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>();
+    assert!(
+        ss(&s.final_resid_dph) < 0.95 * ss(&s.baseline_resid_dph),
+        "{} vs {}",
+        ss(&s.final_resid_dph),
+        ss(&s.baseline_resid_dph)
+    );
+    let figs = plots::figures(&d);
+    assert_eq!(figs.len(), 3);
+    // Heating, cooling and hold blocks all occur in a two-cycle run with holds.
+    assert_eq!(figs[1].1.series.len(), 3, "{:?}", figs[1].1.series);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let paths = plots::write(&d, dir.path()).expect("draws");
+    for p in paths {
+        let bytes = std::fs::read(&p).expect("written");
+        assert!(bytes.starts_with(b"\x89PNG"), "{}", p.display());
+    }
+}
+
 /// Two hidden terms, a hysteresis and a backscatter ripple: both are found (the second
 /// after the first is added to the model), each with its key parameter within 20 %.
 #[test]
