@@ -56,3 +56,33 @@ fn bad_files_give_a_located_error_and_no_output() {
     assert!(!err.contains("backtrace"), "{err}");
     assert!(!out.exists(), "no output file on error");
 }
+
+/// An impossible significance level or too few bootstrap replicates for it are refused
+/// before any file is read, with the reason.
+#[test]
+fn bad_alpha_or_bootstrap_is_refused() {
+    let (code, err) = rlg(&["diagnose", "--recording", "absent.csv", "--alpha", "1.5"]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("--alpha must lie strictly between 0 and 1, got 1.5"),
+        "{err}"
+    );
+    let (code, err) = rlg(&[
+        "diagnose",
+        "--recording",
+        "absent.csv",
+        "--alpha",
+        "0.01",
+        "--bootstrap",
+        "50",
+    ]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(err.contains("needs at least 100 replicates"), "{err}");
+    let (code, err) = rlg(&["benchmark-diagnose", "--out", "never", "--alpha", "0"]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("--alpha must lie strictly between 0 and 1"),
+        "{err}"
+    );
+    assert!(!Path::new("never").exists());
+}

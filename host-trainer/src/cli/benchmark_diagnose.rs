@@ -38,6 +38,11 @@ pub fn run(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
             a > 0.0 && a < 1.0,
             "--alpha must lie strictly between 0 and 1, got {a}"
         );
+        let b = crate::diagnose::Options::default().bootstrap;
+        anyhow::ensure!(
+            a * b as f64 >= 1.0,
+            "--alpha {a} is below what the diagnosis' {b} bootstrap replicates resolve (1/{b})"
+        );
         opts.alpha = a;
     }
     let t0 = std::time::Instant::now();

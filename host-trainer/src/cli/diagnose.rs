@@ -33,16 +33,6 @@ pub struct DiagnoseArgs {
 
 /// Runs the subcommand.
 pub fn run(args: &DiagnoseArgs) -> anyhow::Result<()> {
-    let rec = Recording::read_csv(&args.recording)?;
-    super::warn_units(&args.recording, &rec);
-    let model = match &args.model {
-        Some(p) => {
-            let text =
-                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
-            PhysicsModel::from_toml(&text, &p.display().to_string())?
-        }
-        None => PhysicsModel::paper(),
-    };
     anyhow::ensure!(
         args.alpha > 0.0 && args.alpha < 1.0,
         "--alpha must lie strictly between 0 and 1, got {}",
@@ -55,6 +45,16 @@ pub fn run(args: &DiagnoseArgs) -> anyhow::Result<()> {
         args.bootstrap,
         args.alpha
     );
+    let rec = Recording::read_csv(&args.recording)?;
+    super::warn_units(&args.recording, &rec);
+    let model = match &args.model {
+        Some(p) => {
+            let text =
+                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+            PhysicsModel::from_toml(&text, &p.display().to_string())?
+        }
+        None => PhysicsModel::paper(),
+    };
     let opts = Options {
         bootstrap: args.bootstrap,
         alpha: args.alpha,
