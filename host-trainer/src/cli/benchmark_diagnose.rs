@@ -23,6 +23,10 @@ pub struct BenchmarkDiagnoseArgs {
     /// diagnosis' own); the report adds the verdicts at every smaller α of 0.25 … 5 %.
     #[arg(long)]
     pub alpha: Option<f64>,
+    /// Only the cases hiding these terms (library names, comma-separated; `none` for the
+    /// cases with nothing hidden). Each case keeps its number and recording.
+    #[arg(long, value_delimiter = ',')]
+    pub only: Vec<String>,
 }
 
 /// Runs the subcommand.
@@ -33,6 +37,21 @@ pub fn run(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
         BenchOptions::full(args.seed)
     };
     opts.keep = args.keep;
+    for name in &args.only {
+        opts.only.push(match name.as_str() {
+            "none" => None,
+            n => Some(crate::diagnose::Family::from_name(n).ok_or_else(|| {
+                let known: Vec<&str> = crate::diagnose::Family::ALL
+                    .iter()
+                    .map(|f| f.name())
+                    .collect();
+                anyhow::anyhow!(
+                    "--only: unknown term `{n}`; known: none, {}",
+                    known.join(", ")
+                )
+            })?),
+        });
+    }
     if let Some(a) = args.alpha {
         anyhow::ensure!(
             a > 0.0 && a < 1.0,

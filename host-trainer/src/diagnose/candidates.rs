@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::prepare::{baseline_columns, DriveSeries, PhysicsModel, Prepared};
+use super::prepare::{baseline_columns, read_quantum, DriveSeries, PhysicsModel, Prepared};
 use super::DiagnoseError;
 use crate::physics::{contribution, Term};
 
@@ -28,11 +28,17 @@ pub enum Family {
     Periodic,
     /// `aging`: a linear drift in time.
     Aging,
+    /// `heteroscedastic`: the white noise grows away from a temperature (a test on the
+    /// variance of the 1 Hz samples, not on the 100 s means: see `super::variance`).
+    Heteroscedastic,
+    /// `temp_quantization`: the temperature reading is rounded to a coarse quantum.
+    TempQuantization,
 }
 
 impl Family {
-    /// Every family the diagnosis tests (the bias and sensor terms of the library).
-    pub const ALL: [Family; 8] = [
+    /// Every family the diagnosis tests: the bias, sensor and noise-scale terms of the
+    /// library. (New families go last: the benchmark numbers its cases in this order.)
+    pub const ALL: [Family; 10] = [
         Family::SensorLag,
         Family::GradientLag,
         Family::Hysteresis,
@@ -41,6 +47,8 @@ impl Family {
         Family::Backscatter,
         Family::Periodic,
         Family::Aging,
+        Family::Heteroscedastic,
+        Family::TempQuantization,
     ];
 
     /// The physics library's term name.
@@ -54,6 +62,8 @@ impl Family {
             Family::Backscatter => "backscatter",
             Family::Periodic => "periodic",
             Family::Aging => "aging",
+            Family::Heteroscedastic => "heteroscedastic",
+            Family::TempQuantization => "temp_quantization",
         }
     }
 
@@ -77,6 +87,8 @@ impl Family {
             Family::Backscatter => ("period_c", 0.20),
             Family::Periodic => ("period_s", 0.20),
             Family::Aging => ("rate_dph_per_day", 0.25),
+            Family::Heteroscedastic => ("k", 0.25),
+            Family::TempQuantization => ("step_c", 0.20),
         }
     }
 
@@ -84,8 +96,10 @@ impl Family {
     /// plus scanned non-linear parameters).
     pub fn n_params(self) -> usize {
         match self {
-            Family::SensorLag | Family::Aging => 1,
-            Family::GradientLag | Family::Hysteresis | Family::Warmup => 2,
+            Family::SensorLag | Family::Aging | Family::TempQuantization => 1,
+            Family::GradientLag | Family::Hysteresis | Family::Warmup | Family::Heteroscedastic => {
+                2
+            }
             Family::ModeHop | Family::Backscatter | Family::Periodic => 3,
         }
     }
@@ -119,6 +133,13 @@ impl Family {
                 (0..n).map(|k| vec![1.0 / (f0 + k as f64 * df)]).collect()
             }
             Family::Aging => vec![vec![]],
+            // Scanned on the block variances instead (`super::variance`).
+            Family::Heteroscedastic => Vec::new(),
+            // Not scanned: the quantum is read from the recorded values.
+            Family::TempQuantization => read_quantum(&prep.full_drive.temp_c)
+                .map(|q| vec![q])
+                .into_iter()
+                .collect(),
         }
     }
 
@@ -164,6 +185,8 @@ impl Family {
             Family::Aging => Term::Aging {
                 rate_dph_per_day: a,
             },
+            Family::Heteroscedastic => Term::Heteroscedastic { k: a, ref_c: nl[0] },
+            Family::TempQuantization => Term::TempQuantization { step_c: nl[0] },
         }
     }
 
@@ -171,7 +194,9 @@ impl Family {
     /// Bias terms run over the whole recording from power-on, as in the simulator, and are
     /// then cut to the fitted samples. `sensor_lag` has no amplitude: its column is the change
     /// of the fitted baseline `beta` when its drive is un-lagged by τ (the first-order effect,
-    /// amplitude 1 = the full lag), which nests it in the baseline for the tests.
+    /// amplitude 1 = the full lag), which nests it in the baseline for the tests;
+    /// `temp_quantization` likewise with the drive de-quantised. `heteroscedastic` has no
+    /// column: it changes the noise, not the mean.
     pub fn columns(
         self,
         nl: &[f64],
@@ -185,8 +210,12 @@ impl Family {
         let cut = |v: Vec<f64>| v[prep.range.clone()].to_vec();
         let run = |term: Term| cut(contribution(&term, &d.t_s, &d.temp_c, &d.dtemp_c_per_s));
         Ok(match self {
-            Family::SensorLag => {
-                let lagged = prep.drive_unlagged(nl[0])?;
+            Family::Heteroscedastic => Vec::new(),
+            Family::SensorLag | Family::TempQuantization => {
+                let lagged = match self {
+                    Family::SensorLag => prep.drive_unlagged(nl[0])?,
+                    _ => prep.drive_dequantised(nl[0])?,
+                };
                 let a = baseline_columns(model, &lagged);
                 let b = baseline_columns(model, model_drive);
                 let n = prep.rate_dph.len();

@@ -27,6 +27,7 @@ pub mod noise;
 pub mod plots;
 pub mod prepare;
 mod search;
+mod variance;
 
 #[cfg(test)]
 mod tests;

@@ -96,6 +96,114 @@ impl DriveSeries {
             dtemp_c_per_s: rate,
         })
     }
+
+    /// The drive as it would be had the temperature not been rounded to multiples of
+    /// `step_c`: [`dequantise`] the recorded series, then dT/dt by the same centred
+    /// difference.
+    pub fn dequantised(&self, step_c: f64, dt_s: f64) -> Result<DriveSeries, DiagnoseError> {
+        let temp = dequantise(&self.temp_c, step_c);
+        let rate = estimate_rate(&temp, &self.t_s, dt_s)?;
+        Ok(DriveSeries {
+            t_s: self.t_s.clone(),
+            temp_c: temp,
+            dtemp_c_per_s: rate,
+        })
+    }
+}
+
+/// The quantum of a temperature reading, °C, read from the recorded values: the 5th
+/// percentile of the non-zero sample-to-sample changes, kept only if at least 95 % of all
+/// non-zero changes are whole multiples of it (within 5 %) and it is above 1e-4 °C (the
+/// CSV's resolution). `None`: the reading shows no quantum (a continuous or dithered sensor).
+pub fn read_quantum(temp_c: &[f64]) -> Option<f64> {
+    let mut d: Vec<f64> = temp_c
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|v| *v > 5e-5)
+        .collect();
+    if d.len() < 20 {
+        return None;
+    }
+    d.sort_by(f64::total_cmp);
+    let q = d[d.len() / 20];
+    if q < 1e-4 {
+        return None;
+    }
+    let whole = d
+        .iter()
+        .filter(|v| {
+            let r = *v / q;
+            (r - r.round()).abs() < 0.05
+        })
+        .count();
+    // Rounded to the CSV's 1e-4 °C so that the same quantum reads the same on every record.
+    (whole as f64 >= 0.95 * d.len() as f64).then(|| (q * 1e4).round() / 1e4)
+}
+
+/// Reconstructs a temperature rounded to multiples of `step_c`: where the reading changes
+/// from one level to the next, the true temperature crossed the boundary between them half
+/// a sample earlier; the reconstruction interpolates linearly between those crossings. Where
+/// a level is left the way it was entered (the temperature turned inside it, e.g. a hold),
+/// the crossings bound an excursion into that level: the reconstruction rises to the level's
+/// centre within the shorter of half the excursion and the time the last crossing took, and
+/// stays there. Before the first and after the last crossing it holds the reading.
+///
+/// Written here because it is the inverse of the physics library's own quantiser; a general
+/// interpolation crate would not know where the boundaries are.
+pub fn dequantise(temp_c: &[f64], step_c: f64) -> Vec<f64> {
+    let n = temp_c.len();
+    let mut out = temp_c.to_vec();
+    if n < 2 || step_c.is_nan() || step_c <= 0.0 {
+        return out;
+    }
+    // Knots (sample position, temperature) at each crossing.
+    let mut knots: Vec<(f64, f64)> = Vec::new();
+    for i in 1..n {
+        let (a, b) = (temp_c[i - 1], temp_c[i]);
+        if (b - a).abs() > 0.5 * step_c {
+            let x = i as f64 - 0.5;
+            // A jump over several levels in one sample: crossings spread over the sample.
+            knots.push((x, 0.5 * (a + b)));
+        }
+    }
+    if knots.is_empty() {
+        return out;
+    }
+    // Excursions: consecutive crossings of the same boundary; add the level's centre.
+    let mut full: Vec<(f64, f64)> = Vec::with_capacity(knots.len() * 2);
+    for k in 0..knots.len() {
+        full.push(knots[k]);
+        if let Some(&(x1, v1)) = knots.get(k + 1) {
+            let (x0, v0) = knots[k];
+            if (v1 - v0).abs() < 0.5 * step_c {
+                let level = temp_c[(x0.ceil() as usize).min(n - 1)];
+                let prev = if k > 0 { x0 - knots[k - 1].0 } else { x1 - x0 };
+                let ramp = (0.5 * (x1 - x0)).min(prev.max(1.0));
+                full.push((x0 + ramp, level));
+                if x1 - ramp > x0 + ramp {
+                    full.push((x1 - ramp, level));
+                }
+            }
+        }
+    }
+    let mut k = 0;
+    for (i, o) in out.iter_mut().enumerate() {
+        let x = i as f64;
+        if x < full[0].0 || x > full[full.len() - 1].0 {
+            continue;
+        }
+        while k + 1 < full.len() && full[k + 1].0 < x {
+            k += 1;
+        }
+        let (x0, v0) = full[k];
+        let (x1, v1) = full.get(k + 1).copied().unwrap_or(full[k]);
+        *o = if x1 > x0 {
+            v0 + (v1 - v0) * (x - x0) / (x1 - x0)
+        } else {
+            v0
+        };
+    }
+    out
 }
 
 /// Half-width of the least-squares slope that un-lags the temperature, s.
@@ -143,7 +251,11 @@ pub const RATE_HALF_WIDTH_S: f64 = 30.0;
 /// diagnosis tests the physics, which is written in the true dT/dt; the centred difference
 /// has no phase lag, and with 0.01 °C readings its noise is 0.01/60/√6 ≈ 7e-5 °C/s per
 /// sample, 0.2 % of a 1 °C/min ramp, before the 100 s averaging.
-fn estimate_rate(temp_c: &[f64], t_s: &[f64], _dt_s: f64) -> Result<Vec<f64>, DiagnoseError> {
+pub(crate) fn estimate_rate(
+    temp_c: &[f64],
+    t_s: &[f64],
+    _dt_s: f64,
+) -> Result<Vec<f64>, DiagnoseError> {
     let n = temp_c.len();
     if let Some(i) = temp_c.iter().chain(t_s).position(|v| !v.is_finite()) {
         return Err(DiagnoseError::NonFinite {
@@ -202,13 +314,23 @@ impl Prepared {
     /// The drive un-lagged by `tau_s` (see [`DriveSeries::unlagged`]), computed over the
     /// whole recording so the estimator's warm-up falls outside the fitted samples.
     pub fn drive_unlagged(&self, tau_s: f64) -> Result<DriveSeries, DiagnoseError> {
-        let full = self.full_drive.unlagged(tau_s, self.dt_s)?;
+        Ok(self.fitted_part(&self.full_drive.unlagged(tau_s, self.dt_s)?))
+    }
+
+    /// The fitted samples of a drive over the whole recording.
+    pub fn fitted_part(&self, full: &DriveSeries) -> DriveSeries {
         let r = self.range.clone();
-        Ok(DriveSeries {
+        DriveSeries {
             t_s: full.t_s[r.clone()].to_vec(),
             temp_c: full.temp_c[r.clone()].to_vec(),
             dtemp_c_per_s: full.dtemp_c_per_s[r].to_vec(),
-        })
+        }
+    }
+
+    /// The drive de-quantised at `step_c` (see [`DriveSeries::dequantised`]), computed over
+    /// the whole recording.
+    pub fn drive_dequantised(&self, step_c: f64) -> Result<DriveSeries, DiagnoseError> {
+        Ok(self.fitted_part(&self.full_drive.dequantised(step_c, self.dt_s)?))
     }
 
     /// Block means of a per-sample series.
@@ -344,15 +466,28 @@ pub fn baseline_columns(model: &PhysicsModel, drive: &DriveSeries) -> Vec<Column
     cols
 }
 
-/// The drive the model sees: the recorded one, un-lagged when the model has a `sensor_lag`.
+/// The drive the model sees: the recorded one, de-quantised when the model has a
+/// `temp_quantization`, then un-lagged when it has a `sensor_lag` (the physics library applies
+/// the lag first and the rounding to the lagged reading, so the diagnosis undoes them in the
+/// reverse order).
 pub fn model_drive(model: &PhysicsModel, prep: &Prepared) -> Result<DriveSeries, DiagnoseError> {
-    match model.terms.iter().find_map(|t| match t {
-        Term::SensorLag { tau_s } => Some(*tau_s),
+    let tau = model.terms.iter().find_map(|t| match t {
+        Term::SensorLag { tau_s } if *tau_s > 0.0 => Some(*tau_s),
         _ => None,
-    }) {
-        Some(tau) if tau > 0.0 => prep.drive_unlagged(tau),
-        _ => Ok(prep.drive.clone()),
+    });
+    let step = model.terms.iter().find_map(|t| match t {
+        Term::TempQuantization { step_c } if *step_c > 0.0 => Some(*step_c),
+        _ => None,
+    });
+    let mut full = match step {
+        Some(q) => prep.full_drive.dequantised(q, prep.dt_s)?,
+        None if tau.is_none() => return Ok(prep.drive.clone()),
+        None => prep.full_drive.clone(),
+    };
+    if let Some(tau) = tau {
+        full = full.unlagged(tau, prep.dt_s)?;
     }
+    Ok(prep.fitted_part(&full))
 }
 
 #[cfg(test)]
@@ -380,5 +515,66 @@ mod tests {
         // the curvature: for this parabola by 2e-4·(window centre − t).
         assert!((s[0] - (0.02 + 2e-4 * 0.5 * (h as f64) * dt)).abs() < 1e-9);
         assert_eq!(local_slope(&[5.0], 1.0, 45.0), vec![0.0]);
+    }
+
+    /// A body temperature heating towards 40 °C then cooling at 0.5 °C/min, then resting.
+    fn smooth_temperature() -> Vec<f64> {
+        (0..20_000)
+            .map(|i| {
+                let t = f64::from(i);
+                if t < 8000.0 {
+                    20.0 + 20.0 * (1.0 - (-t / 1200.0).exp())
+                } else {
+                    let top = 20.0 + 20.0 * (1.0 - (-8000.0f64 / 1200.0).exp());
+                    (top - (t - 8000.0) / 120.0).max(-5.0)
+                }
+            })
+            .collect()
+    }
+
+    /// The quantum is read from a rounded reading, and none from a continuous one.
+    #[test]
+    fn quantum_is_read_from_the_reading() {
+        let body = smooth_temperature();
+        for q in [0.01, 0.0625, 0.25] {
+            let r: Vec<f64> = body.iter().map(|t| (t / q).round() * q).collect();
+            assert_eq!(read_quantum(&r), Some((q * 1e4_f64).round() / 1e4), "q {q}");
+        }
+        let noisy: Vec<f64> = body
+            .iter()
+            .enumerate()
+            .map(|(i, t)| t + 0.003 * (i as f64 * 1.7).sin() * (i as f64 * 0.37).cos())
+            .collect();
+        assert_eq!(read_quantum(&noisy), None);
+        assert_eq!(read_quantum(&[1.0; 100]), None);
+    }
+
+    /// De-quantising a coarse reading recovers the temperature and its rate: errors a
+    /// fraction of the rounding's.
+    #[test]
+    fn dequantise_recovers_temperature_and_rate() {
+        let body = smooth_temperature();
+        let t: Vec<f64> = (0..body.len()).map(|i| i as f64).collect();
+        let q = 0.25;
+        let read: Vec<f64> = body.iter().map(|v| (v / q).round() * q).collect();
+        let rec = dequantise(&read, q);
+        let rms = |a: &[f64], b: &[f64]| {
+            let s: f64 = a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum();
+            (s / a.len() as f64).sqrt()
+        };
+        let (e_read, e_rec) = (rms(&read, &body), rms(&rec, &body));
+        assert!(e_rec < 0.35 * e_read, "{e_rec} vs {e_read}");
+        let rate_true = estimate_rate(&body, &t, 1.0).expect("rate");
+        let rate_read = estimate_rate(&read, &t, 1.0).expect("rate");
+        let rate_rec = estimate_rate(&rec, &t, 1.0).expect("rate");
+        let err = |r: &[f64]| rms(r, &rate_true);
+        assert!(
+            err(&rate_rec) < 0.35 * err(&rate_read),
+            "{} vs {}",
+            err(&rate_rec),
+            err(&rate_read)
+        );
+        // Nothing to undo: an unquantised series is returned as it is where it never jumps.
+        assert_eq!(dequantise(&[1.0; 10], 0.1), vec![1.0; 10]);
     }
 }

@@ -159,6 +159,40 @@ fn two_hidden_terms_give_two_findings() {
     assert!((p("backscatter", "period_c") / 25.0 - 1.0).abs() < 0.2);
 }
 
+/// White noise that grows away from 30 °C (k = 0.15: 15 % more σ at 60 °C) and a
+/// temperature read in 0.25 °C steps: both are named (the noise scale by the variance test
+/// on the 1 Hz samples, the quantum read from the readings), k within 25 % and the quantum
+/// exact.
+#[test]
+fn noise_scale_and_reading_quantum_are_found() {
+    let mut s = scenario(
+        vec![Term::Heteroscedastic {
+            k: 0.15,
+            ref_c: 30.0,
+        }],
+        1.0,
+    );
+    for t in &mut s.terms {
+        if let Term::TempQuantization { step_c } = t {
+            *step_c = 0.25;
+        }
+    }
+    let sim = simulate(&s, 21).expect("simulates");
+    let d =
+        diagnose(&sim.recording, &PhysicsModel::paper(), &Options::default()).expect("diagnoses");
+    assert_eq!(d.verdict, Verdict::MissingPhysics, "{:#?}", d.evidence);
+    let get = |m: &str| d.findings.iter().find(|f| f.mechanism == m);
+    let q = get("temp_quantization").unwrap_or_else(|| panic!("{:#?}", d.findings));
+    assert_eq!(q.parameters["step_c"], 0.25);
+    let h = get("heteroscedastic").unwrap_or_else(|| panic!("{:#?}", d.findings));
+    let k = h.parameters["k"];
+    assert!(
+        (k / 0.15 - 1.0).abs() < 0.25,
+        "k {k} ± {}",
+        h.uncertainty["k"]
+    );
+}
+
 /// At ten times the paper's signal-to-noise the fitted non-linear parameters are accurate:
 /// each case pins a fix of an estimator bias that noise alone would hide.
 fn high_snr(extra: Term, seed: u64) -> Finding {
