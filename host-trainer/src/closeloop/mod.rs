@@ -21,7 +21,9 @@
 //! functions of T, already an input (a narrower kernel may be needed, which the
 //! cross-validation chooses); `periodic` and `aging` run in absolute time, which the board
 //! cannot know from its inputs and which would not repeat after calibration;
-//! `heteroscedastic` and `temp_quantization` change the noise, not the bias.
+//! `heteroscedastic` changes the noise, not the bias; `temp_quantization` is in the reading,
+//! which the board shares: its remedy is to de-quantise the reading before the dT/dt
+//! estimator, not a bias feature (not done here).
 //!
 //! Each model is judged with the same protocol ([`Protocol`]): σ and c by blocked
 //! cross-validation on the training part's 100 s means, an LS-SVM on those means (exact, or fixed-size within the
@@ -183,9 +185,11 @@ pub fn feature_for(mechanism: &str, param: impl Fn(&str) -> Option<f64>) -> Sugg
             None,
             "runs in absolute time, which the board's inputs do not carry and which would not repeat after calibration",
         ),
-        "heteroscedastic" | "temp_quantization" => {
-            s(None, "changes the noise, not the bias: nothing to compensate")
-        }
+        "heteroscedastic" => s(None, "changes the noise, not the bias: nothing to compensate"),
+        "temp_quantization" => s(
+            None,
+            "the board reads the same rounded temperature: de-quantise the reading before the dT/dt estimator (not a bias feature)",
+        ),
         other => s(None, &format!("no feature is known for `{other}`")),
     }
 }

@@ -170,6 +170,26 @@ impl VarianceTest {
         }
     }
 
+    /// The smallest rss over the reference at a fixed k: the grid `refs`, then golden-section
+    /// refinement within a grid step either side of its best point.
+    fn best_ref(&self, k: f64, refs: &[f64]) -> f64 {
+        let vals: Vec<f64> = refs.iter().map(|r| self.rss(k, *r)).collect();
+        let i = (0..refs.len())
+            .min_by(|&p, &q| vals[p].total_cmp(&vals[q]))
+            .unwrap_or(0);
+        let (mut x0, mut x1) = (refs[i.saturating_sub(1)], refs[(i + 1).min(refs.len() - 1)]);
+        let phi = 0.5 * (5.0f64.sqrt() - 1.0);
+        for _ in 0..40 {
+            let (c, d) = (x1 - phi * (x1 - x0), x0 + phi * (x1 - x0));
+            if self.rss(k, c) < self.rss(k, d) {
+                x1 = d;
+            } else {
+                x0 = c;
+            }
+        }
+        self.rss(k, 0.5 * (x0 + x1)).min(vals[i])
+    }
+
     /// The references scanned: 81 points from half the range below the coldest block to
     /// half the range above the hottest.
     fn ref_grid(&self) -> Vec<f64> {
@@ -222,15 +242,10 @@ impl VarianceTest {
         let ks: Vec<f64> = (-20..=20)
             .map(|a| k + se_lin * 0.25 * f64::from(a))
             .collect();
-        let prof: Vec<f64> = ks
-            .iter()
-            .map(|kk| {
-                all_refs
-                    .iter()
-                    .map(|r| self.rss(*kk, *r))
-                    .fold(f64::INFINITY, f64::min)
-            })
-            .collect();
+        // The reference minimised exactly at each k: on the grids alone the profile came out
+        // too high away from k̂ and the interval too narrow (truth within 1σ in 7 of 18
+        // benchmark cases).
+        let prof: Vec<f64> = ks.iter().map(|kk| self.best_ref(*kk, &refs)).collect();
         let inside: Vec<f64> = ks
             .iter()
             .zip(&prof)
