@@ -57,8 +57,8 @@ fn bad_files_give_a_located_error_and_no_output() {
     assert!(!out.exists(), "no output file on error");
 }
 
-/// An impossible significance level or too few bootstrap replicates for it are refused
-/// before any file is read, with the reason.
+/// An impossible significance level, too few bootstrap replicates for it, or an unknown
+/// benchmark subset are refused before any file is read, with the reason.
 #[test]
 fn bad_alpha_or_bootstrap_is_refused() {
     let (code, err) = rlg(&["diagnose", "--recording", "absent.csv", "--alpha", "1.5"]);
@@ -82,6 +82,20 @@ fn bad_alpha_or_bootstrap_is_refused() {
     assert_eq!(code, Some(1), "{err}");
     assert!(
         err.contains("--alpha must lie strictly between 0 and 1"),
+        "{err}"
+    );
+    assert!(!Path::new("never").exists());
+    // A subset naming a term the benchmark does not know is refused, with the known names.
+    let (code, err) = rlg(&[
+        "benchmark-diagnose",
+        "--out",
+        "never",
+        "--only",
+        "aging,wobble",
+    ]);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.contains("--only: unknown term `wobble`") && err.contains("temp_quantization"),
         "{err}"
     );
     assert!(!Path::new("never").exists());

@@ -1287,7 +1287,8 @@ mod tests {
             .filter(|c| c.truth == "none" && c.predicted != "none")
             .count();
         println!("{}", report_markdown(&r));
-        assert!(ok >= 6, "{ok}/{}", hidden.len());
+        // Measured with ten families at α 2 %: 18 of 20 named, 1 of 8 false alarms.
+        assert!(ok >= 15, "{ok}/{}", hidden.len());
         assert!(fa <= 2, "{fa} false alarms");
     }
 }

@@ -125,7 +125,7 @@ fn model_columns(
 /// Held-out figures of `model` alone or with `extra` added (its non-linear parameters fixed,
 /// its amplitude fitted), by 4-fold interleaved cross-validation on the recording. The
 /// benchmark calls this with the true hidden term to obtain the true model's gain. A
-/// `heteroscedastic` term does not change the mean: see [`heldout_variance_gain`].
+/// `heteroscedastic` term does not change the mean: its check is `variance::heldout_variance`.
 pub fn heldout_metrics(
     prep: &Prepared,
     model: &PhysicsModel,
