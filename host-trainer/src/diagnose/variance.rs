@@ -73,6 +73,33 @@ fn centred(x: &[f64]) -> Vec<f64> {
     x.iter().map(|v| v - m).collect()
 }
 
+/// The minimum of `f` over `grid`, refined by `iters` steps of golden-section search between
+/// the best grid point's neighbours: (x, f(x)), the grid point if the refinement is no better.
+/// (Ten lines; a one-dimensional bracket needs no optimisation crate.)
+fn grid_then_golden(grid: &[f64], iters: usize, f: impl Fn(f64) -> f64) -> (f64, f64) {
+    let vals: Vec<f64> = grid.iter().map(|x| f(*x)).collect();
+    let i = (0..grid.len())
+        .min_by(|&p, &q| vals[p].total_cmp(&vals[q]))
+        .unwrap_or(0);
+    let (mut x0, mut x1) = (grid[i.saturating_sub(1)], grid[(i + 1).min(grid.len() - 1)]);
+    let phi = 0.5 * (5.0f64.sqrt() - 1.0);
+    for _ in 0..iters {
+        let (c, d) = (x1 - phi * (x1 - x0), x0 + phi * (x1 - x0));
+        if f(c) < f(d) {
+            x1 = d;
+        } else {
+            x0 = c;
+        }
+    }
+    let x = 0.5 * (x0 + x1);
+    let fx = f(x);
+    if fx <= vals[i] {
+        (x, fx)
+    } else {
+        (grid[i], vals[i])
+    }
+}
+
 impl VarianceTest {
     /// The test on a prepared recording; None when a block has no variance (a constant or
     /// too coarsely quantised rate), where a log-variance is undefined.
@@ -147,47 +174,13 @@ impl VarianceTest {
         let grid: Vec<f64> = (0..80)
             .map(|i| (a + (b - a) * f64::from(i) / 79.0).sinh())
             .collect();
-        let vals: Vec<f64> = grid.iter().map(|k| self.rss(*k, ref_c)).collect();
-        let i = (0..grid.len())
-            .min_by(|&p, &q| vals[p].total_cmp(&vals[q]))
-            .unwrap_or(0);
-        let (mut x0, mut x1) = (grid[i.saturating_sub(1)], grid[(i + 1).min(grid.len() - 1)]);
-        let phi = 0.5 * (5.0f64.sqrt() - 1.0);
-        for _ in 0..60 {
-            let (c, d) = (x1 - phi * (x1 - x0), x0 + phi * (x1 - x0));
-            if self.rss(c, ref_c) < self.rss(d, ref_c) {
-                x1 = d;
-            } else {
-                x0 = c;
-            }
-        }
-        let k = 0.5 * (x0 + x1);
-        let r = self.rss(k, ref_c);
-        if r <= vals[i] {
-            (k, r)
-        } else {
-            (grid[i], vals[i])
-        }
+        grid_then_golden(&grid, 60, |k| self.rss(k, ref_c))
     }
 
     /// The smallest rss over the reference at a fixed k: the grid `refs`, then golden-section
     /// refinement within a grid step either side of its best point.
     fn best_ref(&self, k: f64, refs: &[f64]) -> f64 {
-        let vals: Vec<f64> = refs.iter().map(|r| self.rss(k, *r)).collect();
-        let i = (0..refs.len())
-            .min_by(|&p, &q| vals[p].total_cmp(&vals[q]))
-            .unwrap_or(0);
-        let (mut x0, mut x1) = (refs[i.saturating_sub(1)], refs[(i + 1).min(refs.len() - 1)]);
-        let phi = 0.5 * (5.0f64.sqrt() - 1.0);
-        for _ in 0..40 {
-            let (c, d) = (x1 - phi * (x1 - x0), x0 + phi * (x1 - x0));
-            if self.rss(k, c) < self.rss(k, d) {
-                x1 = d;
-            } else {
-                x0 = c;
-            }
-        }
-        self.rss(k, 0.5 * (x0 + x1)).min(vals[i])
+        grid_then_golden(refs, 40, |r| self.rss(k, r)).1
     }
 
     /// The references scanned: 81 points from half the range below the coldest block to
