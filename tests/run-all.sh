@@ -26,4 +26,4 @@ step "tests (host crates, firmware logic on the host, firmware in QEMU)"
 cargo test --workspace
 
 step "diagnosis benchmark, quick set (release; regression floors on detection and false alarms)"
-cargo test --release -p host-trainer --lib quick_benchmark -- --ignored --nocapture
+cargo test --release -p rlg-benchmarks --lib quick_benchmark -- --ignored --nocapture

@@ -1,28 +1,9 @@
-//! Host-side toolchain for temperature compensation of ring-laser-gyro (RLG) bias, after
-//! Yu et al., Chin. Opt. Lett. 9(5) 051201 (2011).
+//! `rlg`, the host toolchain for temperature compensation of ring-laser-gyro (RLG) bias after
+//! Yu et al., Chin. Opt. Lett. 9(5) 051201 (2011): the command line over the library crates.
 //!
-//! A library with a thin CLI (`rlg`) on top: everything the CLI does is callable from Rust.
+//! Everything the CLI does is callable from Rust, in the crates it calls: the product path
+//! (`rlg-io` → `rlg-train` → `rlg-eval`, with `rlg-physics`) never depends on the lab
+//! (`rlg-simulate`, `rlg-diagnose`, `rlg-closeloop`, `rlg-repro`, `rlg-benchmarks`); this
+//! crate depends on both because the diagnosis is a user-facing command.
 
-pub mod atomic;
-pub mod baselines;
-pub mod bench;
 pub mod cli;
-pub mod closeloop;
-pub mod cycles;
-pub mod diagnose;
-pub mod export;
-pub mod export_c;
-pub mod features;
-pub mod fleet;
-pub mod lssvm;
-pub mod metrics;
-pub mod model;
-pub mod physics;
-pub mod pipeline;
-pub mod plot;
-pub mod recording;
-pub mod repro;
-pub mod resample;
-pub mod simulate;
-pub mod sparse_eval;
-pub mod table1;

@@ -22,8 +22,8 @@ use std::time::Duration;
 
 use compensator_core::fixed::{FixedModel, Q, Z};
 use compensator_core::{ModelRef, ModelSpec, ModelTable, RateFilter};
-use host_trainer::export::{table_item, F32Model};
 use object::{Object, ObjectSection, ObjectSymbol, SectionFlags};
+use rlg_train::export::{table_item, F32Model};
 
 use crate::firmware::{self, log_field, FirmwareError, QemuRun};
 
@@ -57,10 +57,7 @@ pub fn synthetic_table(n: usize, seed: u64) -> F32Model<2> {
 }
 
 /// Rust source of `t` for `RLG_MODEL_TABLE` (the exporter's own table item, CRC included).
-pub fn table_file(
-    t: &F32Model<2>,
-    what: &str,
-) -> Result<String, host_trainer::export::ExportError> {
+pub fn table_file(t: &F32Model<2>, what: &str) -> Result<String, rlg_train::export::ExportError> {
     Ok(format!("// {what}\n\n{}", table_item(t)?))
 }
 

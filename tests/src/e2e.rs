@@ -6,8 +6,9 @@ use std::time::Duration;
 
 use anyhow::{ensure, Context as _};
 use compensator_core::{Compensator, SensorLimits};
-use host_trainer::metrics::bias_stability_dph;
-use host_trainer::{export, features, pipeline};
+use rlg_eval::metrics::bias_stability_dph;
+use rlg_repro::pipeline;
+use rlg_train::{export, features};
 
 use crate::firmware;
 use crate::replay::{self, ReplaySample};
@@ -74,7 +75,7 @@ pub fn run(out: &Path) -> anyhow::Result<E2eReport> {
     let (run, model) = pipeline::default_model()?;
     model.write(&out.join("model.json"))?;
     let source = export::table_source(&model, pipeline::DEFAULT_TABLE_COMMAND)?;
-    host_trainer::model::write_atomic(&out.join("model_table.rs"), source.as_bytes())?;
+    rlg_train::model::write_atomic(&out.join("model_table.rs"), source.as_bytes())?;
     let committed =
         std::fs::read_to_string(firmware::workspace_root().join("firmware/src/model_table.rs"))?;
 

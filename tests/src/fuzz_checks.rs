@@ -5,8 +5,8 @@
 use compensator_core::{
     Compensator, Feature, ModelSpec, ModelTable, RateFilter, SensorLimits, Status,
 };
-use host_trainer::model::ModelFile;
-use host_trainer::recording::Recording;
+use rlg_io::recording::Recording;
+use rlg_train::model::ModelFile;
 
 /// The recording reader on arbitrary bytes (as lossy UTF-8): an error or a recording, never
 /// a panic; an accepted recording is well-formed, writes and reads back, and its features
@@ -26,7 +26,7 @@ pub fn recording(data: &[u8]) {
             let back = Recording::parse_csv(&csv, "fuzz round trip").expect("own output reads");
             assert_eq!(back.len(), rec.len());
         }
-        let _ = host_trainer::features::compute(
+        let _ = rlg_train::features::compute(
             &[Feature::TempC, Feature::TempRateCPerS],
             &rec.temp_c,
             &rec.time_s,
@@ -41,7 +41,7 @@ pub fn recording(data: &[u8]) {
 pub fn model_file(data: &[u8]) {
     let text = String::from_utf8_lossy(data);
     if let Ok(m) = ModelFile::from_json(&text, "fuzz") {
-        let _ = host_trainer::export::table_source(&m, "fuzz");
+        let _ = rlg_train::export::table_source(&m, "fuzz");
         let _ = m.predict_dph(&m.input_lo.clone());
     }
 }

@@ -7,8 +7,8 @@
 use std::io::Write;
 use std::process::{Command, Stdio};
 
-use host_trainer::export::F32Model;
-use host_trainer::export_c::c_header;
+use rlg_train::export::F32Model;
+use rlg_train::export_c::c_header;
 
 /// Agreement budget of an f32 evaluator with the f64 reference, °/h.
 const BUDGET_DPH: f64 = 1e-5;

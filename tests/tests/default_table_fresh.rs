@@ -6,7 +6,7 @@
 //! paths differ) may move an f32 literal by an ulp, whereas a stale table (other data, seed,
 //! σ or c) moves every coefficient by far more.
 
-use host_trainer::pipeline;
+use rlg_repro::pipeline;
 
 /// Relative tolerance on each numeric literal; f32 ulp is 6e-8 relative.
 const NUMBER_TOLERANCE: f64 = 1e-5;

@@ -2,8 +2,8 @@
 //! file, whether the trainer runs on one thread or on several (rayon parallelises the kernel
 //! fill, faer the factorisations), and on the mixed-precision path of large exact solves.
 
-use host_trainer::model::{ModelFile, Provenance};
-use host_trainer::pipeline;
+use rlg_repro::pipeline;
+use rlg_train::model::{ModelFile, Provenance};
 
 /// faer's parallelism is process-global: the tests of this file take turns setting it.
 static GLOBAL_PARALLELISM: std::sync::Mutex<()> = std::sync::Mutex::new(());

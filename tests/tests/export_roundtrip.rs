@@ -2,9 +2,9 @@
 //! byte-for-byte deterministic.
 
 use compensator_core::Feature;
-use host_trainer::export::{table_source, to_f32, F32Model};
-use host_trainer::lssvm::dataset;
-use host_trainer::model::{ModelFile, Provenance};
+use rlg_train::dataset;
+use rlg_train::export::{table_source, to_f32, F32Model};
+use rlg_train::model::{ModelFile, Provenance};
 
 /// A generated table, committed and compiled into this test: the Table 1 static model.
 mod generated {

@@ -2,10 +2,10 @@
 //! evaluation of the same model, on the numbers the exporter writes (`export::to_f32`).
 
 use compensator_core::{Compensator, Feature, SensorLimits};
-use host_trainer::export::to_f32;
-use host_trainer::features;
-use host_trainer::lssvm::dataset;
-use host_trainer::model::{ModelFile, Provenance};
+use rlg_train::dataset;
+use rlg_train::export::to_f32;
+use rlg_train::features;
+use rlg_train::model::{ModelFile, Provenance};
 
 /// Largest allowed |f32 board output − f64 trainer output| over the trained range, °/h.
 ///

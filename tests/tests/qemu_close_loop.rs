@@ -11,14 +11,12 @@
 use std::time::Duration;
 
 use compensator_core::Feature;
-use host_trainer::closeloop::{
-    augmented_features, first_cycle_end_s, train_and_score_on, Inputs, Protocol,
-};
-use host_trainer::diagnose::{diagnose, Options, PhysicsModel};
-use host_trainer::export;
-use host_trainer::model::Provenance;
-use host_trainer::physics::Term;
-use host_trainer::simulate::{simulate, Scenario};
+use rlg_closeloop::{augmented_features, first_cycle_end_s, train_and_score_on, Inputs, Protocol};
+use rlg_diagnose::{diagnose, Options, PhysicsModel};
+use rlg_physics::Term;
+use rlg_simulate::{simulate, Scenario};
+use rlg_train::export;
+use rlg_train::model::Provenance;
 use tests::budgets::{build_image, ImageOptions};
 use tests::e2e::compare_with_host;
 use tests::firmware;

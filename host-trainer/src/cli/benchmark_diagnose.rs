@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use crate::diagnose::bench::{report_markdown, run_benchmark, BenchOptions};
+use rlg_benchmarks::diagnose::{report_markdown, run_benchmark, BenchOptions};
 
 /// Arguments of `rlg benchmark-diagnose`.
 #[derive(Debug, clap::Args)]
@@ -40,11 +40,8 @@ pub fn run(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
     for name in &args.only {
         opts.only.push(match name.as_str() {
             "none" => None,
-            n => Some(crate::diagnose::Family::from_name(n).ok_or_else(|| {
-                let known: Vec<&str> = crate::diagnose::Family::ALL
-                    .iter()
-                    .map(|f| f.name())
-                    .collect();
+            n => Some(rlg_diagnose::Family::from_name(n).ok_or_else(|| {
+                let known: Vec<&str> = rlg_diagnose::Family::ALL.iter().map(|f| f.name()).collect();
                 anyhow::anyhow!(
                     "--only: unknown term `{n}`; known: none, {}",
                     known.join(", ")
@@ -57,7 +54,7 @@ pub fn run(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
             a > 0.0 && a < 1.0,
             "--alpha must lie strictly between 0 and 1, got {a}"
         );
-        let b = crate::diagnose::Options::default().bootstrap;
+        let b = rlg_diagnose::Options::default().bootstrap;
         anyhow::ensure!(
             a * b as f64 >= 1.0,
             "--alpha {a} is below what the diagnosis' {b} bootstrap replicates resolve (1/{b})"
@@ -67,11 +64,11 @@ pub fn run(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
     let results = run_benchmark(&opts, &args.out)?;
     let md = report_markdown(&results);
-    crate::recording::write_atomic(
+    rlg_io::recording::write_atomic(
         &args.out.join("results.json"),
         serde_json::to_string_pretty(&results)?.as_bytes(),
     )?;
-    crate::recording::write_atomic(&args.out.join("report.md"), md.as_bytes())?;
+    rlg_io::recording::write_atomic(&args.out.join("report.md"), md.as_bytes())?;
     println!("{md}");
     eprintln!(
         "{} recordings in {:.1} s",

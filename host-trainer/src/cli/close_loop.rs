@@ -6,13 +6,13 @@ use std::path::PathBuf;
 
 use anyhow::Context as _;
 
-use crate::closeloop::{
+use rlg_closeloop::{
     self, augmented_features, first_cycle_end_s, train_and_score, train_and_score_on, Inputs,
     Protocol,
 };
-use crate::diagnose::{diagnose, DiagnoseError, Diagnosis, Options, PhysicsModel};
-use crate::model::Provenance;
-use crate::recording::Recording;
+use rlg_diagnose::{diagnose, DiagnoseError, Diagnosis, Options, PhysicsModel};
+use rlg_io::recording::Recording;
+use rlg_train::model::Provenance;
 
 /// Arguments of `rlg close-loop`.
 #[derive(Debug, clap::Args)]
@@ -35,7 +35,7 @@ pub struct CloseLoopArgs {
     #[arg(long)]
     pub train_to_s: Option<f64>,
     /// Support vectors of the models (fixed-size LS-SVM; the board table's capacity).
-    #[arg(long, default_value_t = crate::pipeline::SUPPORT_VECTORS)]
+    #[arg(long, default_value_t = rlg_repro::pipeline::SUPPORT_VECTORS)]
     pub budget: usize,
     /// Write the chosen model file (JSON) here: the augmented one when cross-validation
     /// adopts it, else the [T, dT/dt] one.
@@ -152,7 +152,7 @@ pub fn run(args: &CloseLoopArgs, command_line: &str) -> anyhow::Result<()> {
         println!("wrote {}", p.display());
     }
     if let Some(p) = &args.out_table {
-        crate::export::write_table(&chosen.model, command_line, p)?;
+        rlg_train::export::write_table(&chosen.model, command_line, p)?;
         println!("wrote {}", p.display());
     }
     Ok(())
@@ -176,8 +176,8 @@ pub struct BenchmarkCloseLoopArgs {
 /// Runs `rlg benchmark-close-loop`.
 pub fn run_benchmark(args: &BenchmarkCloseLoopArgs) -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
-    let cases = closeloop::bench::run(&args.seed, args.per_term)?;
-    let md = closeloop::bench::report_markdown(&cases);
+    let cases = rlg_benchmarks::closeloop::run(&args.seed, args.per_term)?;
+    let md = rlg_benchmarks::closeloop::report_markdown(&cases);
     print!("{md}");
     println!(
         "\n{} cases in {:.0} s",
@@ -185,7 +185,7 @@ pub fn run_benchmark(args: &BenchmarkCloseLoopArgs) -> anyhow::Result<()> {
         t0.elapsed().as_secs_f64()
     );
     if let Some(p) = &args.out {
-        crate::atomic::write(p, md.as_bytes())
+        rlg_io::atomic::write(p, md.as_bytes())
             .with_context(|| format!("writing {}", p.display()))?;
     }
     Ok(())

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use crate::pipeline;
+use rlg_repro::pipeline;
 
 /// Arguments of `rlg default-table`.
 #[derive(Debug, Args)]
@@ -17,8 +17,8 @@ pub struct DefaultTableArgs {
 /// Runs `rlg default-table`.
 pub fn run(a: &DefaultTableArgs) -> anyhow::Result<()> {
     let (run, model) = pipeline::default_model()?;
-    let source = crate::export::table_source(&model, pipeline::DEFAULT_TABLE_COMMAND)?;
-    crate::model::write_atomic(&a.out, source.as_bytes())?;
+    let source = rlg_train::export::table_source(&model, pipeline::DEFAULT_TABLE_COMMAND)?;
+    rlg_train::model::write_atomic(&a.out, source.as_bytes())?;
     println!(
         "wrote {}: {} support vectors trained on {:.0} s of {} s (first of {} cycles); \
          TRAINING rms {:.2e} °/h, max {:.2e} °/h",

@@ -4,8 +4,8 @@ use std::path::PathBuf;
 
 use anyhow::Context as _;
 
-use crate::diagnose::{diagnose, Options, PhysicsModel};
-use crate::recording::Recording;
+use rlg_diagnose::{diagnose, Options, PhysicsModel};
+use rlg_io::recording::Recording;
 
 /// Arguments of `rlg diagnose`.
 #[derive(Debug, clap::Args)]
@@ -80,10 +80,10 @@ pub fn run(args: &DiagnoseArgs) -> anyhow::Result<()> {
     }
     if let Some(p) = &args.json {
         let text = serde_json::to_string_pretty(&d)?;
-        crate::recording::write_atomic(p, text.as_bytes())?;
+        rlg_io::recording::write_atomic(p, text.as_bytes())?;
     }
     if let Some(dir) = &args.plots {
-        for p in crate::diagnose::plots::write(&d, dir)
+        for p in rlg_diagnose::plots::write(&d, dir)
             .with_context(|| format!("drawing into {}", dir.display()))?
         {
             println!("figure: {}", p.display());

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use crate::model::ModelFile;
+use rlg_train::model::ModelFile;
 
 /// Arguments of `rlg export`.
 #[derive(Debug, Args)]
@@ -20,7 +20,7 @@ pub struct ExportArgs {
 /// Runs `rlg export`.
 pub fn run(a: &ExportArgs, command_line: &str) -> anyhow::Result<()> {
     let m = ModelFile::read(&a.model)?;
-    crate::export::write_table(&m, command_line, &a.out)?;
+    rlg_train::export::write_table(&m, command_line, &a.out)?;
     println!(
         "wrote {} ({} support vectors, {} features)",
         a.out.display(),

@@ -5,9 +5,9 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use crate::fleet::{self, FleetOptions};
-use crate::lssvm::sparse::{Reduction, DEFAULT_BUDGET};
-use crate::pipeline;
+use rlg_repro::pipeline;
+use rlg_train::fleet::{self, FleetOptions};
+use rlg_train::lssvm::sparse::{Reduction, DEFAULT_BUDGET};
 
 /// Arguments of `rlg train-fleet`.
 #[derive(Debug, Args)]

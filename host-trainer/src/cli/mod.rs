@@ -1,7 +1,7 @@
 //! The `rlg` command line: argument parsing and printing on top of the library.
 
-pub mod bench;
 pub mod benchmark_diagnose;
+pub mod benchmark_lssvm;
 pub mod close_loop;
 pub mod default_table;
 pub mod diagnose;
@@ -38,11 +38,11 @@ pub enum Command {
     /// Train every recording of a folder in parallel: one model and one table each.
     TrainFleet(fleet::TrainFleetArgs),
     /// Time training a reduced model from a simulated multi-day 1 Hz campaign; peak memory.
-    BenchScale(bench::BenchScaleArgs),
+    BenchScale(benchmark_lssvm::BenchScaleArgs),
     /// Time the exact LS-SVM path on data files shared with the Python reference.
-    BenchLssvm(bench::BenchLssvmArgs),
+    BenchLssvm(benchmark_lssvm::BenchLssvmArgs),
     /// Held-out stability of reduced models vs the full one on the reference dynamic run.
-    SparseReport(bench::SparseReportArgs),
+    SparseReport(benchmark_lssvm::SparseReportArgs),
     /// Diagnose where a recording departs from a physics model and which term is missing.
     Diagnose(diagnose::DiagnoseArgs),
     /// Run the concealed-effect benchmark of the diagnosis and print its table.
@@ -69,9 +69,9 @@ impl Cli {
             Command::Simulate(a) => simulate::run(&a),
             Command::DefaultTable(a) => default_table::run(&a),
             Command::TrainFleet(a) => fleet::run(&a, command_line),
-            Command::BenchScale(a) => bench::run_scale(&a),
-            Command::BenchLssvm(a) => bench::run_lssvm(&a),
-            Command::SparseReport(a) => bench::run_sparse(&a),
+            Command::BenchScale(a) => benchmark_lssvm::run_scale(&a),
+            Command::BenchLssvm(a) => benchmark_lssvm::run_lssvm(&a),
+            Command::SparseReport(a) => benchmark_lssvm::run_sparse(&a),
             Command::Diagnose(a) => diagnose::run(&a),
             Command::BenchmarkDiagnose(a) => benchmark_diagnose::run(&a),
             Command::CloseLoop(a) => close_loop::run(&a, command_line),
@@ -83,9 +83,9 @@ impl Cli {
     }
 }
 
-/// Prints the recording's unit warnings ([`crate::recording::Recording::unit_warnings`]) on
+/// Prints the recording's unit warnings ([`rlg_io::recording::Recording::unit_warnings`]) on
 /// stderr, naming the file.
-pub fn warn_units(path: &std::path::Path, rec: &crate::recording::Recording) {
+pub fn warn_units(path: &std::path::Path, rec: &rlg_io::recording::Recording) {
     for w in rec.unit_warnings() {
         eprintln!("warning: {}: {w}", path.display());
     }

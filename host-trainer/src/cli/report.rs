@@ -5,9 +5,9 @@ use std::path::PathBuf;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::metrics::compare::markdown_table;
-use crate::repro::{dynamic, report, static_test};
-use crate::table1;
+use rlg_eval::metrics::compare::markdown_table;
+use rlg_io::table1;
+use rlg_repro::{dynamic, report, static_test};
 
 /// Arguments of `rlg report`.
 #[derive(Debug, clap::Args)]
@@ -16,7 +16,7 @@ pub struct ReportArgs {
     #[arg(long, default_value = "report")]
     pub out: PathBuf,
     /// Seed of the simulated dynamic test.
-    #[arg(long, default_value_t = crate::pipeline::DYNAMIC_SEED)]
+    #[arg(long, default_value_t = rlg_repro::pipeline::DYNAMIC_SEED)]
     pub seed: u64,
     /// Train on means of this many 1 Hz samples (100: the paper's averaging; 1: raw 1 Hz).
     #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..=3600))]
@@ -56,7 +56,7 @@ pub fn run(args: &ReportArgs) -> anyhow::Result<()> {
         seed: args.seed,
         block: args.block as usize,
         window: args.window as usize,
-        stepwise: crate::baselines::StepwiseOptions {
+        stepwise: rlg_eval::baselines::StepwiseOptions {
             alpha_enter: args.alpha_enter,
             alpha_remove: args.alpha_remove,
             ..Default::default()

@@ -1,10 +1,10 @@
 //! `rlg resample`: a high-rate, jittered or bursty log to the recording the trainer reads
-//! (rules: [`crate::resample`]).
+//! (rules: [`rlg_io::resample`]).
 
 use std::path::PathBuf;
 
-use crate::recording::Recording;
-use crate::resample::{bin_means, burst_means};
+use rlg_io::recording::Recording;
+use rlg_io::resample::{bin_means, burst_means};
 
 /// Arguments of `rlg resample`.
 #[derive(Debug, clap::Args)]

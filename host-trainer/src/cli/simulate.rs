@@ -2,8 +2,8 @@
 
 use std::path::PathBuf;
 
-use crate::simulate::{simulate, truth_path, write_simulation, Scenario};
 use anyhow::Context as _;
+use rlg_simulate::{simulate, truth_path, write_simulation, Scenario};
 
 /// Arguments of `rlg simulate`.
 #[derive(Debug, clap::Args)]
@@ -36,8 +36,9 @@ pub fn run(args: &SimulateArgs) -> anyhow::Result<()> {
         truth_path(&args.out).display()
     );
     if let Some(png) = &args.plot {
-        let fig = crate::simulate::figure::scenario_figure(&scenario.name, &sim.recording);
-        crate::plot::render_png(&fig, png).with_context(|| format!("drawing {}", png.display()))?;
+        let fig = rlg_simulate::figure::scenario_figure(&scenario.name, &sim.recording);
+        rlg_io::plot::render_png(&fig, png)
+            .with_context(|| format!("drawing {}", png.display()))?;
         eprintln!("plot → {}", png.display());
     }
     Ok(())

@@ -1,9 +1,9 @@
 //! `rlg static-repro`: the paper's static model (Table 1, Fig. 2(a)) reproduced.
 
-use crate::baselines::static_polynomial;
-use crate::metrics::compare::{markdown_table, FigureOfMerit};
-use crate::{plot, table1};
 use anyhow::Context;
+use rlg_eval::baselines::static_polynomial;
+use rlg_eval::metrics::compare::{markdown_table, FigureOfMerit};
+use rlg_io::{plot, table1};
 use std::path::PathBuf;
 
 /// Arguments of `rlg static-repro`.

@@ -5,9 +5,9 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 
-use crate::lssvm::dataset::{self, RecordingSelection};
-use crate::model::{ModelFile, Provenance};
-use crate::recording::Recording;
+use rlg_io::recording::Recording;
+use rlg_train::dataset::{self, RecordingSelection};
+use rlg_train::model::{ModelFile, Provenance};
 
 /// Arguments of `rlg train`.
 #[derive(Debug, Args)]

@@ -8,15 +8,15 @@
 use std::path::PathBuf;
 
 use host_trainer::cli::report::progress;
-use host_trainer::metrics::compare::markdown_table;
-use host_trainer::repro::{dynamic, report, static_test};
+use rlg_eval::metrics::compare::markdown_table;
+use rlg_repro::{dynamic, report, static_test};
 
 fn main() -> anyhow::Result<()> {
     let out = PathBuf::from(std::env::args().nth(1).unwrap_or_else(|| "out".to_string()));
 
     let opts = dynamic::DynamicOptions::default();
     let st = static_test::reproduce(
-        &host_trainer::table1::bundled()?,
+        &rlg_io::table1::bundled()?,
         &opts.grid,
         &progress("static LS-SVM: LOO grid"),
     )?;
@@ -36,7 +36,7 @@ fn main() -> anyhow::Result<()> {
     let r = tests::e2e::run(&out)?;
     println!(
         "== Dynamic test (yu2011-dynamic, seed {}), LS-SVM on [T, dT/dt]",
-        host_trainer::pipeline::DYNAMIC_SEED
+        rlg_repro::pipeline::DYNAMIC_SEED
     );
     println!(
         "  support vectors                      {}",

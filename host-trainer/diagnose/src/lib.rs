@@ -1,0 +1,287 @@
+//! Mismatch diagnosis: where a recording departs from a physics model, which missing term of
+//! the shared physics library explains it, and how much the fit improves with it.
+//!
+//! Pipeline ([`diagnose`]):
+//! 1. Fit the model's linear parameters by least squares on 100 s means, driven by the
+//!    recorded temperature and its dT/dt (centred difference, see [`prepare`]).
+//! 2. Fit the gyro noise to the baseline residual (angle random walk from its Allan variance,
+//!    bias instability by REML on the 100 s means) and whiten the means by the exact
+//!    Cholesky factor of that model's block-mean covariance ([`noise`]).
+//! 3. For every library term the model lacks ([`candidates::Family`]), scan its non-linear
+//!    parameter on a grid, fit its amplitude jointly with the baseline, and score it by
+//!    ΔBIC on the whitened 100 s means.
+//! 4. Thresholds: a parametric bootstrap of the fitted noise model run through the same scan
+//!    gives the null distribution of the best ΔBIC over all candidates (this accounts for the
+//!    coloured noise and for the look-elsewhere effect of the scans); a candidate counts when
+//!    its ΔBIC is below the null's 1 − α quantile AND it lowers the held-out (4-fold,
+//!    interleaved 1 h chunks) residual of the 100 s means.
+//! 5. Verdict, located spans, before/after held-out figures and a plain-words explanation.
+//!
+//! The diagnosis reads only the recording and the model, never a truth sidecar.
+
+pub mod candidates;
+pub mod linalg;
+pub mod locate;
+pub mod noise;
+pub mod plots;
+pub mod prepare;
+mod search;
+pub mod variance;
+
+#[cfg(test)]
+mod tests;
+
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+pub use candidates::Family;
+pub use locate::Span;
+pub use prepare::{PhysicsModel, Prepared};
+pub use search::{heldout_metrics, HeldOut};
+
+/// Why a diagnosis could not run.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum DiagnoseError {
+    /// The model file is not valid.
+    #[error("{origin}: not a valid physics model: {message}")]
+    Model {
+        /// File or description.
+        origin: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The recording is too short for 100 s means to say anything.
+    #[error(
+        "the recording gives {blocks} usable 100 s blocks; the diagnosis needs at least {min}"
+    )]
+    TooShort {
+        /// Usable blocks.
+        blocks: usize,
+        /// Required.
+        min: usize,
+    },
+    /// A temperature or time stamp is NaN or infinite.
+    #[error("non-finite temperature or time at sample {index}")]
+    NonFinite {
+        /// 0-based sample.
+        index: usize,
+    },
+}
+
+/// Options of the diagnosis.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// Bootstrap replicates of the noise model.
+    pub bootstrap: usize,
+    /// False-alarm probability per recording of the significance test.
+    pub alpha: f64,
+    /// Seed of the bootstrap (the diagnosis is deterministic for a given seed).
+    pub seed: u64,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Self {
+            bootstrap: 400,
+            // Chosen on the benchmark's design seeds 1 and 3 from the operating curve
+            // (`rlg benchmark-diagnose --alpha 0.05`): 3 false alarms in 200 recordings at
+            // 2 %, 6 at 3 %, 18 at 5 %; the target is ≤ 5 %. See the module README.
+            alpha: 0.02,
+            seed: 0x5eed,
+        }
+    }
+}
+
+/// Held-out figures of merit of a model (4-fold interleaved cross-validation).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Figures {
+    /// RMS of the held-out 1 Hz residual, °/h.
+    pub rms_dph: f64,
+    /// 100 s bias stability of the held-out residual, °/h.
+    pub b100_dph: f64,
+    /// BIC of the held-out 100 s means: n·ln(RSS/n) + k·ln n.
+    pub bic: f64,
+}
+
+/// One missing term found.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Finding {
+    /// The physics library's term name.
+    pub mechanism: String,
+    /// Fitted parameters, by the library's names.
+    pub parameters: BTreeMap<String, f64>,
+    /// 1σ uncertainty of the fitted parameters (same names, same units).
+    pub uncertainty: BTreeMap<String, f64>,
+    /// Where the term's fitted effect is at least half its peak.
+    #[serde(rename = "where")]
+    pub where_: Vec<Span>,
+    /// ΔBIC of adding the term (whitened 100 s means of the whole record; negative = better).
+    pub delta_bic: f64,
+    /// Held-out figures with the term added.
+    pub improved: Figures,
+    /// Plain-words explanation.
+    pub explanation: String,
+}
+
+/// The verdict.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// Nothing significant.
+    Consistent,
+    /// A library term explains a significant residual.
+    MissingPhysics,
+    /// Significant residual structure that no library term explains.
+    UnexplainedStructure,
+}
+
+/// The result (the JSON contract of `rlg diagnose --json`, plus diagnostics).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Diagnosis {
+    /// The verdict.
+    pub verdict: Verdict,
+    /// Held-out figures of the baseline model.
+    pub baseline: Figures,
+    /// Missing terms, most significant first.
+    pub findings: Vec<Finding>,
+    /// Spans where the baseline residual's 100 s means are significant.
+    pub located: Vec<Span>,
+    /// The run's phases.
+    pub phases: Vec<Span>,
+    /// Evidence behind the verdict.
+    pub evidence: Evidence,
+    /// The 100 s means behind the plots ([`plots`]); not part of the JSON.
+    #[serde(skip)]
+    pub series: BlockSeries,
+}
+
+/// The recording's 100 s means and the model residuals the plots show.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BlockSeries {
+    /// Block centre times, s.
+    pub t_s: Vec<f64>,
+    /// Recorded temperature, °C.
+    pub temp_c: Vec<f64>,
+    /// dT/dt, °C/s.
+    pub dtemp_c_per_s: Vec<f64>,
+    /// Residual of the model as given (its linear parameters fitted), °/h.
+    pub baseline_resid_dph: Vec<f64>,
+    /// Residual with every finding added (non-linear parameters as found, amplitudes
+    /// refitted with the model's), °/h; equal to the baseline's when nothing was found.
+    pub final_resid_dph: Vec<f64>,
+}
+
+/// The numbers behind the verdict.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Evidence {
+    /// AR coefficients of the 100 s-mean noise model.
+    pub noise_ar: Vec<f64>,
+    /// Innovation σ of the noise model, °/h.
+    pub noise_sigma_dph: f64,
+    /// How the tests whitened the 100 s means: "gls" (exact covariance of the fitted gyro
+    /// noise) or "ar" (the AR(p) fit; recordings longer than the GLS limit).
+    #[serde(default)]
+    pub whitening: String,
+    /// Gyro noise fitted to the 1 Hz residual for the bootstrap: angle random walk °/√h,
+    /// bias instability °/h, rate random walk °/h/√h.
+    pub noise_fit: [f64; 3],
+    /// Bootstrap threshold on the best candidate's ΔBIC.
+    pub delta_bic_threshold: f64,
+    /// Bootstrap threshold on the generic-structure ΔBIC.
+    pub structure_threshold: f64,
+    /// Generic-structure ΔBIC of the baseline residual.
+    pub structure_delta_bic: f64,
+    /// Its bootstrap p-value (the share of noise replicates with a ΔBIC at least as low).
+    #[serde(default)]
+    pub structure_p_value: f64,
+    /// Best ΔBIC of each candidate family (most negative first) with its held-out gain
+    /// (reduction of the held-out sum of squares of 100 s means, (°/h)²).
+    pub candidates: Vec<CandidateScore>,
+}
+
+/// One family's best score.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CandidateScore {
+    /// Term name.
+    pub mechanism: String,
+    /// Best ΔBIC over its grid.
+    pub delta_bic: f64,
+    /// The significance threshold its ΔBIC is compared with (the bootstrap's, one for all
+    /// families at present).
+    #[serde(default)]
+    pub threshold: f64,
+    /// Bootstrap p-value of its ΔBIC against the null distribution of the best ΔBIC over
+    /// all families and grid points (look-elsewhere included): it is significant exactly
+    /// when this is at most α (up to the bootstrap's resolution, 1/(replicates + 1)).
+    #[serde(default)]
+    pub p_value: f64,
+    /// Its p-value had this family been the only one tested (against the null of the best
+    /// ΔBIC over its own grid): what knowing in advance which physics to expect would buy.
+    /// Reported only; the verdict uses `p_value`.
+    #[serde(default)]
+    pub p_value_alone: f64,
+    /// Held-out gain, (°/h)² (evaluated only for significant candidates, else 0).
+    pub heldout_gain: f64,
+}
+
+/// Diagnoses `rec` against `model`.
+pub fn diagnose(
+    rec: &rlg_io::recording::Recording,
+    model: &PhysicsModel,
+    opts: &Options,
+) -> Result<Diagnosis, DiagnoseError> {
+    let prep = prepare::prepare(rec)?;
+    let mut d = search::run(&prep, model, opts)?;
+    // Further findings: the term found is added to the model (its amplitude refitted with
+    // the baseline, its non-linear parameter kept) and the search runs again on what is
+    // left, with its own bootstrap threshold, until nothing more is significant.
+    let mut current = model.clone();
+    while d.verdict == Verdict::MissingPhysics && d.findings.len() < MAX_FINDINGS {
+        let Some(term) = d.findings.last().and_then(Finding::term) else {
+            break;
+        };
+        current.terms.push(term);
+        let next = search::run(&prep, &current, opts)?;
+        match (next.verdict, next.findings.into_iter().next()) {
+            (Verdict::MissingPhysics, Some(f)) => d.findings.push(f),
+            _ => break,
+        }
+    }
+    let mut full = model.clone();
+    full.terms
+        .extend(d.findings.iter().filter_map(Finding::term));
+    d.series = BlockSeries {
+        t_s: prep.t_b.clone(),
+        temp_c: prep.temp_b.clone(),
+        dtemp_c_per_s: prep.dtemp_b.clone(),
+        baseline_resid_dph: block_residual(&prep, model)?,
+        final_resid_dph: block_residual(&prep, &full)?,
+    };
+    Ok(d)
+}
+
+/// Residual of the 100 s means after a least-squares fit of `model`'s linear parameters.
+fn block_residual(prep: &Prepared, model: &PhysicsModel) -> Result<Vec<f64>, DiagnoseError> {
+    let drive = prepare::model_drive(model, prep)?;
+    let cols: Vec<Vec<f64>> = prepare::baseline_columns(model, &drive)
+        .iter()
+        .map(|c| prep.blocks(&c.values))
+        .collect();
+    Ok(linalg::Basis::new(&cols).residual(&prep.y_b))
+}
+
+/// The most findings one diagnosis reports.
+pub const MAX_FINDINGS: usize = 3;
+
+impl Finding {
+    /// The physics-library term this finding names, with its fitted parameters.
+    pub fn term(&self) -> Option<rlg_physics::Term> {
+        let mut m = toml::Table::new();
+        m.insert("kind".into(), self.mechanism.clone().into());
+        for (k, v) in &self.parameters {
+            m.insert(k.clone(), toml::Value::Float(*v));
+        }
+        toml::Value::Table(m).try_into().ok()
+    }
+}

@@ -1,0 +1,142 @@
+//! The diagnosis' figures (`rlg diagnose --plots DIR`): the model's residual of the 100 s
+//! means against time with the located spans, against temperature split into heating,
+//! cooling and holds, and before/after the findings.
+
+use std::path::{Path, PathBuf};
+
+use super::Diagnosis;
+use rlg_io::plot::{render_png, Figure, PlotError, Series, Style};
+
+/// |dT/dt| below which a 100 s block counts as a hold, °C/s (0.05 °C/min).
+const HOLD_RATE_C_PER_S: f64 = 0.05 / 60.0;
+
+/// The three figures with their file names.
+pub fn figures(d: &Diagnosis) -> Vec<(&'static str, Figure)> {
+    let s = &d.series;
+    let hours: Vec<f64> = s.t_s.iter().map(|t| t / 3600.0).collect();
+    let in_span = |t: f64| d.located.iter().any(|w| t >= w.t_start_s && t <= w.t_end_s);
+    let masked = |keep: &dyn Fn(usize) -> bool, v: &[f64]| -> Vec<f64> {
+        v.iter()
+            .enumerate()
+            .map(|(i, y)| if keep(i) { *y } else { f64::NAN })
+            .collect()
+    };
+
+    let mut time = Figure::new(
+        &format!(
+            "Residual of the model, 100 s means ({} located span(s))",
+            d.located.len()
+        ),
+        "time (h)",
+        "residual (°/h)",
+    );
+    time.series.push(Series::new(
+        "residual",
+        hours.clone(),
+        s.baseline_resid_dph.clone(),
+        Style::Line,
+    ));
+    if !d.located.is_empty() {
+        time.series.push(Series::new(
+            "in a located span (significant residual)",
+            hours.clone(),
+            masked(&|i| in_span(s.t_s[i]), &s.baseline_resid_dph),
+            Style::Points,
+        ));
+    }
+    if let Some(f) = d.findings.first() {
+        let in_where = |t: f64| f.where_.iter().any(|w| t >= w.t_start_s && t <= w.t_end_s);
+        time.series.push(Series::new(
+            &format!("where the {} effect is ≥ half its peak", f.mechanism),
+            hours.clone(),
+            masked(&|i| in_where(s.t_s[i]), &s.baseline_resid_dph),
+            Style::Points,
+        ));
+    }
+    let explained: Vec<f64> = s
+        .baseline_resid_dph
+        .iter()
+        .zip(&s.final_resid_dph)
+        .map(|(a, b)| a - b)
+        .collect();
+    if !d.findings.is_empty() {
+        time.series.push(Series::new(
+            "fitted effect of the findings",
+            hours.clone(),
+            explained,
+            Style::Line,
+        ));
+    }
+
+    let mut temp = Figure::new(
+        "Residual of the model against temperature, 100 s means",
+        "T (°C)",
+        "residual (°/h)",
+    );
+    let r = &s.dtemp_c_per_s;
+    for (label, keep) in [
+        (
+            "heating",
+            Box::new(|i: usize| r[i] > HOLD_RATE_C_PER_S) as Box<dyn Fn(usize) -> bool>,
+        ),
+        ("cooling", Box::new(|i: usize| r[i] < -HOLD_RATE_C_PER_S)),
+        ("hold", Box::new(|i: usize| r[i].abs() <= HOLD_RATE_C_PER_S)),
+    ] {
+        let y = masked(&keep, &s.baseline_resid_dph);
+        if y.iter().any(|v| v.is_finite()) {
+            temp.series
+                .push(Series::new(label, s.temp_c.clone(), y, Style::Points));
+        }
+    }
+
+    let b = &d.baseline;
+    let a = d.findings.last().map_or(b, |f| &f.improved);
+    let mut ba = Figure::new(
+        &format!(
+            "Before / after: held-out 100 s stability {:.2e} → {:.2e} °/h",
+            b.b100_dph, a.b100_dph
+        ),
+        "time (h)",
+        "residual (°/h)",
+    );
+    ba.series.push(Series::new(
+        "model as given",
+        hours.clone(),
+        s.baseline_resid_dph.clone(),
+        Style::Line,
+    ));
+    ba.series.push(Series::new(
+        &format!(
+            "with {}",
+            if d.findings.is_empty() {
+                "no finding".to_string()
+            } else {
+                d.findings
+                    .iter()
+                    .map(|f| f.mechanism.as_str())
+                    .collect::<Vec<_>>()
+                    .join(" + ")
+            }
+        ),
+        hours,
+        s.final_resid_dph.clone(),
+        Style::Line,
+    ));
+    vec![
+        ("residual_time.png", time),
+        ("residual_temperature.png", temp),
+        ("before_after.png", ba),
+    ]
+}
+
+/// Writes the figures into `dir` (created if missing); returns their paths.
+pub fn write(d: &Diagnosis, dir: &Path) -> Result<Vec<PathBuf>, PlotError> {
+    std::fs::create_dir_all(dir)?;
+    figures(d)
+        .into_iter()
+        .map(|(name, fig)| {
+            let p = dir.join(name);
+            render_png(&fig, &p).map(|()| p)
+        })
+        .collect()
+}

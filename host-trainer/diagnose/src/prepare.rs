@@ -1,0 +1,576 @@
+//! From a recording and a physics model to the series the diagnosis fits: the driving series
+//! (recorded temperature, dT/dt from the board's estimator), 100 s block means, and the
+//! baseline model's columns (each linear parameter's unit contribution, computed by the
+//! shared physics library).
+
+use serde::{Deserialize, Serialize};
+
+use super::DiagnoseError;
+use rlg_eval::metrics::block_means;
+use rlg_io::recording::Recording;
+use rlg_physics::{contribution, Role, Term};
+
+/// Length of the averaging blocks, s (the paper's 100 s means).
+pub const BLOCK_S: f64 = 100.0;
+
+/// A physics model: the terms with initial parameters (TOML `[[terms]]`, as in scenarios).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PhysicsModel {
+    /// Short name.
+    #[serde(default)]
+    pub name: String,
+    /// The terms.
+    pub terms: Vec<Term>,
+}
+
+/// The paper's model: Earth rate, cubic static polynomial and the rate terms of Eq. (11).
+pub const PAPER_MODEL_TOML: &str = include_str!("../../models/paper.toml");
+
+impl PhysicsModel {
+    /// Parses a model from TOML text; `origin` names it in errors.
+    pub fn from_toml(text: &str, origin: &str) -> Result<Self, DiagnoseError> {
+        let m: PhysicsModel = toml::from_str(text).map_err(|e| DiagnoseError::Model {
+            origin: origin.to_string(),
+            message: e.to_string(),
+        })?;
+        for t in &m.terms {
+            t.validate().map_err(|message| DiagnoseError::Model {
+                origin: origin.to_string(),
+                message,
+            })?;
+        }
+        Ok(m)
+    }
+
+    /// The paper's model (see [`PAPER_MODEL_TOML`]).
+    pub fn paper() -> Self {
+        // The embedded file is checked by a unit test, so this cannot fail at run time.
+        Self::from_toml(PAPER_MODEL_TOML, "models/paper.toml").unwrap_or(PhysicsModel {
+            name: "paper".into(),
+            terms: Vec::new(),
+        })
+    }
+
+    /// Whether the model holds a term of this name.
+    pub fn has(&self, name: &str) -> bool {
+        self.terms.iter().any(|t| t.name() == name)
+    }
+}
+
+/// Driving series at the recording's rate.
+#[derive(Clone, Debug)]
+pub struct DriveSeries {
+    /// s.
+    pub t_s: Vec<f64>,
+    /// Temperature driving the model, °C.
+    pub temp_c: Vec<f64>,
+    /// dT/dt from the estimator, °C/s.
+    pub dtemp_c_per_s: Vec<f64>,
+}
+
+impl DriveSeries {
+    /// The drive as it would be if the recorded temperature lagged the body by `tau_s`
+    /// (τ·dT_s/dt = T_c − T_s, so T_c = T_s + τ·dT_s/dt exactly); dT_c/dt by the same
+    /// centred difference over the corrected series.
+    ///
+    /// The dT_s/dt that τ multiplies is the least-squares slope over ±45 s
+    /// ([`local_slope`]), not the ±30 s centred difference: τ amplifies the derivative's
+    /// noise, and with 0.01 °C readings the difference of a quantised staircase put
+    /// τ·7e-5 °C/s (0.03 °C at τ = 400 s) into T_c and four times that into dT_c/dt. That
+    /// regressor noise pulled the fitted lag low, most where it is longest: at ten times the
+    /// benchmark's detectability τ came out −3 % on average and down to −14 % (without
+    /// quantisation +1 %). The slope's noise is 6× lower.
+    pub fn unlagged(&self, tau_s: f64, dt_s: f64) -> Result<DriveSeries, DiagnoseError> {
+        let slope = local_slope(&self.temp_c, dt_s, UNLAG_HALF_WIDTH_S);
+        let temp: Vec<f64> = self
+            .temp_c
+            .iter()
+            .zip(&slope)
+            .map(|(t, r)| t + tau_s * r)
+            .collect();
+        let rate = estimate_rate(&temp, &self.t_s, dt_s)?;
+        Ok(DriveSeries {
+            t_s: self.t_s.clone(),
+            temp_c: temp,
+            dtemp_c_per_s: rate,
+        })
+    }
+
+    /// The drive as it would be had the temperature not been rounded to multiples of
+    /// `step_c`: [`dequantise`] the recorded series, then dT/dt by the same centred
+    /// difference.
+    pub fn dequantised(&self, step_c: f64, dt_s: f64) -> Result<DriveSeries, DiagnoseError> {
+        let temp = dequantise(&self.temp_c, step_c);
+        let rate = estimate_rate(&temp, &self.t_s, dt_s)?;
+        Ok(DriveSeries {
+            t_s: self.t_s.clone(),
+            temp_c: temp,
+            dtemp_c_per_s: rate,
+        })
+    }
+}
+
+/// The quantum of a temperature reading, °C, read from the recorded values: the 5th
+/// percentile of the non-zero sample-to-sample changes, kept only if at least 95 % of all
+/// non-zero changes are whole multiples of it (within 5 %) and it is above 1e-4 °C (the
+/// CSV's resolution). `None`: the reading shows no quantum (a continuous or dithered sensor).
+pub fn read_quantum(temp_c: &[f64]) -> Option<f64> {
+    let mut d: Vec<f64> = temp_c
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|v| *v > 5e-5)
+        .collect();
+    if d.len() < 20 {
+        return None;
+    }
+    d.sort_by(f64::total_cmp);
+    let q = d[d.len() / 20];
+    if q < 1e-4 {
+        return None;
+    }
+    let whole = d
+        .iter()
+        .filter(|v| {
+            let r = *v / q;
+            (r - r.round()).abs() < 0.05
+        })
+        .count();
+    // Rounded to the CSV's 1e-4 °C so that the same quantum reads the same on every record.
+    (whole as f64 >= 0.95 * d.len() as f64).then(|| (q * 1e4).round() / 1e4)
+}
+
+/// Reconstructs a temperature rounded to multiples of `step_c`: where the reading changes
+/// from one level to the next, the true temperature crossed the boundary between them half
+/// a sample earlier; the reconstruction interpolates linearly between those crossings. Where
+/// a level is left the way it was entered (the temperature turned inside it, e.g. a hold),
+/// the crossings bound an excursion into that level: the reconstruction rises to the level's
+/// centre within the shorter of half the excursion and the time the last crossing took, and
+/// stays there. Before the first and after the last crossing it holds the reading.
+///
+/// Written here because it is the inverse of the physics library's own quantiser; a general
+/// interpolation crate would not know where the boundaries are.
+pub fn dequantise(temp_c: &[f64], step_c: f64) -> Vec<f64> {
+    let n = temp_c.len();
+    let mut out = temp_c.to_vec();
+    if n < 2 || step_c.is_nan() || step_c <= 0.0 {
+        return out;
+    }
+    // Knots (sample position, temperature) at each crossing.
+    let mut knots: Vec<(f64, f64)> = Vec::new();
+    for i in 1..n {
+        let (a, b) = (temp_c[i - 1], temp_c[i]);
+        if (b - a).abs() > 0.5 * step_c {
+            let x = i as f64 - 0.5;
+            // A jump over several levels in one sample: crossings spread over the sample.
+            knots.push((x, 0.5 * (a + b)));
+        }
+    }
+    if knots.is_empty() {
+        return out;
+    }
+    // Excursions: consecutive crossings of the same boundary; add the level's centre.
+    let mut full: Vec<(f64, f64)> = Vec::with_capacity(knots.len() * 2);
+    for k in 0..knots.len() {
+        full.push(knots[k]);
+        if let Some(&(x1, v1)) = knots.get(k + 1) {
+            let (x0, v0) = knots[k];
+            if (v1 - v0).abs() < 0.5 * step_c {
+                let level = temp_c[(x0.ceil() as usize).min(n - 1)];
+                let prev = if k > 0 { x0 - knots[k - 1].0 } else { x1 - x0 };
+                let ramp = (0.5 * (x1 - x0)).min(prev.max(1.0));
+                full.push((x0 + ramp, level));
+                if x1 - ramp > x0 + ramp {
+                    full.push((x1 - ramp, level));
+                }
+            }
+        }
+    }
+    let mut k = 0;
+    for (i, o) in out.iter_mut().enumerate() {
+        let x = i as f64;
+        if x < full[0].0 || x > full[full.len() - 1].0 {
+            continue;
+        }
+        while k + 1 < full.len() && full[k + 1].0 < x {
+            k += 1;
+        }
+        let (x0, v0) = full[k];
+        let (x1, v1) = full.get(k + 1).copied().unwrap_or(full[k]);
+        *o = if x1 > x0 {
+            v0 + (v1 - v0) * (x - x0) / (x1 - x0)
+        } else {
+            v0
+        };
+    }
+    out
+}
+
+/// Half-width of the least-squares slope that un-lags the temperature, s.
+const UNLAG_HALF_WIDTH_S: f64 = 45.0;
+
+/// Least-squares slope of `x` (uniform samples `dt_s` apart) over a window of ±`half_width_s`
+/// around each sample, truncated at the ends; 0 for a single sample. O(n) by prefix sums.
+/// (The Savitzky–Golay first derivative of order 1 and 2; a dozen lines, so not a crate.)
+fn local_slope(x: &[f64], dt_s: f64, half_width_s: f64) -> Vec<f64> {
+    let n = x.len();
+    let h = ((half_width_s / dt_s).round() as usize).max(1);
+    let x0 = x.first().copied().unwrap_or(0.0);
+    // Prefix sums of (x − x₀) and i·(x − x₀); x₀ keeps the sums small.
+    let (mut s, mut si) = (vec![0.0; n + 1], vec![0.0; n + 1]);
+    for (i, v) in x.iter().enumerate() {
+        s[i + 1] = s[i] + (v - x0);
+        si[i + 1] = si[i] + i as f64 * (v - x0);
+    }
+    (0..n)
+        .map(|i| {
+            let (a, b) = (i.saturating_sub(h), (i + h).min(n - 1));
+            let m = (b - a + 1) as f64;
+            if m < 2.0 {
+                return 0.0;
+            }
+            let kbar = 0.5 * (a + b) as f64;
+            let sx = s[b + 1] - s[a];
+            let sxi = si[b + 1] - si[a];
+            // Σ(k − k̄)² over m consecutive integers.
+            let skk = m * (m * m - 1.0) / 12.0;
+            (sxi - kbar * sx) / skk / dt_s
+        })
+        .collect()
+}
+
+/// Half-width of the centred difference that estimates dT/dt, s.
+pub const RATE_HALF_WIDTH_S: f64 = 30.0;
+
+/// dT/dt by a centred difference over ±30 s (one-sided at the ends), °C/s.
+///
+/// Not the board's causal α-β estimator (`compensator_core::RateEstimator`): on the body's
+/// curved temperature at the ends of each ramp that estimator lags by an amount ∝ d²T/dt²,
+/// and through the rate terms (2.16 °/h per °C/s) this lag is itself a model mismatch — on a
+/// simulated recording with nothing hidden it scored ΔBIC −30 as a "sensor lag". The
+/// diagnosis tests the physics, which is written in the true dT/dt; the centred difference
+/// has no phase lag, and with 0.01 °C readings its noise is 0.01/60/√6 ≈ 7e-5 °C/s per
+/// sample, 0.2 % of a 1 °C/min ramp, before the 100 s averaging.
+pub fn estimate_rate(temp_c: &[f64], t_s: &[f64], _dt_s: f64) -> Result<Vec<f64>, DiagnoseError> {
+    let n = temp_c.len();
+    if let Some(i) = temp_c.iter().chain(t_s).position(|v| !v.is_finite()) {
+        return Err(DiagnoseError::NonFinite {
+            index: i % n.max(1),
+        });
+    }
+    let dt = if n > 1 {
+        (t_s[n - 1] - t_s[0]) / (n - 1) as f64
+    } else {
+        1.0
+    };
+    let h = ((RATE_HALF_WIDTH_S / dt).round() as usize).max(1);
+    Ok((0..n)
+        .map(|i| {
+            let (a, b) = (i.saturating_sub(h), (i + h).min(n - 1));
+            if b > a {
+                (temp_c[b] - temp_c[a]) / (t_s[b] - t_s[a])
+            } else {
+                0.0
+            }
+        })
+        .collect())
+}
+
+/// The recording prepared for fitting.
+#[derive(Clone, Debug)]
+pub struct Prepared {
+    /// Sample period, s.
+    pub dt_s: f64,
+    /// Samples per block.
+    pub block: usize,
+    /// The drive (starting after the estimator's warm-up), whole blocks only.
+    pub drive: DriveSeries,
+    /// Recorded rate over the same samples, °/h.
+    pub rate_dph: Vec<f64>,
+    /// The drive over the whole recording (the estimator's warm-up included).
+    pub full_drive: DriveSeries,
+    /// The samples of `full_drive` that `drive` holds.
+    pub range: std::ops::Range<usize>,
+    /// Block means of the rate, °/h.
+    pub y_b: Vec<f64>,
+    /// Block means of time (s), temperature (°C), dT/dt (°C/s).
+    pub t_b: Vec<f64>,
+    /// °C.
+    pub temp_b: Vec<f64>,
+    /// °C/s.
+    pub dtemp_b: Vec<f64>,
+}
+
+impl Prepared {
+    /// Number of blocks.
+    pub fn nb(&self) -> usize {
+        self.y_b.len()
+    }
+
+    /// The drive un-lagged by `tau_s` (see [`DriveSeries::unlagged`]), computed over the
+    /// whole recording so the estimator's warm-up falls outside the fitted samples.
+    pub fn drive_unlagged(&self, tau_s: f64) -> Result<DriveSeries, DiagnoseError> {
+        Ok(self.fitted_part(&self.full_drive.unlagged(tau_s, self.dt_s)?))
+    }
+
+    /// The fitted samples of a drive over the whole recording.
+    pub fn fitted_part(&self, full: &DriveSeries) -> DriveSeries {
+        let r = self.range.clone();
+        DriveSeries {
+            t_s: full.t_s[r.clone()].to_vec(),
+            temp_c: full.temp_c[r.clone()].to_vec(),
+            dtemp_c_per_s: full.dtemp_c_per_s[r].to_vec(),
+        }
+    }
+
+    /// The drive de-quantised at `step_c` (see [`DriveSeries::dequantised`]), computed over
+    /// the whole recording.
+    pub fn drive_dequantised(&self, step_c: f64) -> Result<DriveSeries, DiagnoseError> {
+        Ok(self.fitted_part(&self.full_drive.dequantised(step_c, self.dt_s)?))
+    }
+
+    /// Block means of a per-sample series.
+    pub fn blocks(&self, x: &[f64]) -> Vec<f64> {
+        block_means(x, self.block)
+    }
+}
+
+/// Minimum number of 100 s blocks for a diagnosis (about 5.5 h).
+pub const MIN_BLOCKS: usize = 200;
+
+/// Prepares a recording: computes dT/dt by a centred difference, drops the first 30 s and any
+/// partial last block.
+pub fn prepare(rec: &Recording) -> Result<Prepared, DiagnoseError> {
+    let n = rec.len();
+    if n < 3 {
+        return Err(DiagnoseError::TooShort {
+            blocks: 0,
+            min: MIN_BLOCKS,
+        });
+    }
+    let dt_s = (rec.time_s[n - 1] - rec.time_s[0]) / (n - 1) as f64;
+    let rate_all = estimate_rate(&rec.temp_c, &rec.time_s, dt_s)?;
+    let block = (BLOCK_S / dt_s).round().max(1.0) as usize;
+    // The first and last ±30 s have one-sided differences; the start is dropped (the end is
+    // usually cut by the partial last block).
+    let skip = ((RATE_HALF_WIDTH_S / dt_s).ceil() as usize).min(n);
+    let usable = (n - skip) / block * block;
+    let nb = usable / block;
+    if nb < MIN_BLOCKS {
+        return Err(DiagnoseError::TooShort {
+            blocks: nb,
+            min: MIN_BLOCKS,
+        });
+    }
+    let r = skip..skip + usable;
+    let drive = DriveSeries {
+        t_s: rec.time_s[r.clone()].to_vec(),
+        temp_c: rec.temp_c[r.clone()].to_vec(),
+        dtemp_c_per_s: rate_all[r.clone()].to_vec(),
+    };
+    let rate_dph = rec.rate_dph[r.clone()].to_vec();
+    let full_drive = DriveSeries {
+        t_s: rec.time_s.clone(),
+        temp_c: rec.temp_c.clone(),
+        dtemp_c_per_s: rate_all,
+    };
+    Ok(Prepared {
+        full_drive,
+        range: r,
+        dt_s,
+        block,
+        y_b: block_means(&rate_dph, block),
+        t_b: block_means(&drive.t_s, block),
+        temp_b: block_means(&drive.temp_c, block),
+        dtemp_b: block_means(&drive.dtemp_c_per_s, block),
+        drive,
+        rate_dph,
+    })
+}
+
+/// One column of a design: a linear parameter's unit contribution per sample.
+#[derive(Clone, Debug)]
+pub struct Column {
+    /// Which term and parameter, e.g. `static_poly.coeffs_dph[2]`.
+    pub name: String,
+    /// °/h per unit of the parameter, per sample.
+    pub values: Vec<f64>,
+}
+
+/// The baseline model's columns evaluated on `drive`, each a linear parameter of the model:
+/// a constant (Earth rate and any offset), each `static_poly` coefficient, the three rate
+/// terms, and the amplitude of any other bias term at its given non-linear parameters.
+/// Sensor terms of the model (a `sensor_lag`) are applied to the drive by the caller.
+pub fn baseline_columns(model: &PhysicsModel, drive: &DriveSeries) -> Vec<Column> {
+    let (t, x, r) = (&drive.t_s, &drive.temp_c, &drive.dtemp_c_per_s);
+    let n = t.len();
+    let mut cols = vec![Column {
+        name: "offset".into(),
+        values: vec![1.0; n],
+    }];
+    for term in &model.terms {
+        match term {
+            Term::EarthRate { .. } => {}
+            Term::StaticPoly {
+                center_c,
+                scale_c,
+                coeffs_dph,
+            } => {
+                // The constant is the offset column; one column per higher power.
+                for k in 1..coeffs_dph.len() {
+                    let mut unit = vec![0.0; coeffs_dph.len()];
+                    unit[k] = 1.0;
+                    let u = Term::StaticPoly {
+                        center_c: *center_c,
+                        scale_c: *scale_c,
+                        coeffs_dph: unit,
+                    };
+                    cols.push(Column {
+                        name: format!("static_poly.coeffs_dph[{k}]"),
+                        values: contribution(&u, t, x, r),
+                    });
+                }
+            }
+            Term::RateTerms { .. } => {
+                for (name, (a, b, c)) in [
+                    ("linear", (1.0, 0.0, 0.0)),
+                    ("cubic", (0.0, 1.0, 0.0)),
+                    ("temp_linear", (0.0, 0.0, 1.0)),
+                ] {
+                    let u = Term::RateTerms {
+                        linear: a,
+                        cubic: b,
+                        temp_linear: c,
+                    };
+                    cols.push(Column {
+                        name: format!("rate_terms.{name}"),
+                        values: contribution(&u, t, x, r),
+                    });
+                }
+            }
+            other if other.role() == Role::Bias => {
+                if let Some(u) = super::candidates::unit_amplitude(other) {
+                    cols.push(Column {
+                        name: format!("{}.amplitude", other.name()),
+                        values: contribution(&u, t, x, r),
+                    });
+                }
+            }
+            _ => {}
+        }
+    }
+    cols
+}
+
+/// The drive the model sees: the recorded one, de-quantised when the model has a
+/// `temp_quantization`, then un-lagged when it has a `sensor_lag` (the physics library applies
+/// the lag first and the rounding to the lagged reading, so the diagnosis undoes them in the
+/// reverse order).
+pub fn model_drive(model: &PhysicsModel, prep: &Prepared) -> Result<DriveSeries, DiagnoseError> {
+    let tau = model.terms.iter().find_map(|t| match t {
+        Term::SensorLag { tau_s } if *tau_s > 0.0 => Some(*tau_s),
+        _ => None,
+    });
+    let step = model.terms.iter().find_map(|t| match t {
+        Term::TempQuantization { step_c } if *step_c > 0.0 => Some(*step_c),
+        _ => None,
+    });
+    let mut full = match step {
+        Some(q) => prep.full_drive.dequantised(q, prep.dt_s)?,
+        None if tau.is_none() => return Ok(prep.drive.clone()),
+        None => prep.full_drive.clone(),
+    };
+    if let Some(tau) = tau {
+        full = full.unlagged(tau, prep.dt_s)?;
+    }
+    Ok(prep.fitted_part(&full))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The least-squares slope is exact on a line everywhere (ends included) and on a
+    /// parabola wherever its window is whole (a symmetric window cancels the curvature).
+    #[test]
+    fn local_slope_is_exact_on_lines_and_centred_parabolas() {
+        let dt = 2.0;
+        let t: Vec<f64> = (0..300).map(|i| f64::from(i) * dt).collect();
+        let line: Vec<f64> = t.iter().map(|t| 3.0 - 0.01 * t).collect();
+        for s in local_slope(&line, dt, 45.0) {
+            assert!((s + 0.01).abs() < 1e-12, "{s}");
+        }
+        let par: Vec<f64> = t.iter().map(|t| 1.0 + 0.02 * t + 1e-4 * t * t).collect();
+        let s = local_slope(&par, dt, 45.0);
+        let h = 23; // 45 s / 2 s, rounded
+        for i in h..t.len() - h {
+            let want = 0.02 + 2e-4 * t[i];
+            assert!((s[i] - want).abs() < 1e-9, "{i}: {} vs {want}", s[i]);
+        }
+        // A truncated window at the ends is still a least-squares slope, biased only by
+        // the curvature: for this parabola by 2e-4·(window centre − t).
+        assert!((s[0] - (0.02 + 2e-4 * 0.5 * (h as f64) * dt)).abs() < 1e-9);
+        assert_eq!(local_slope(&[5.0], 1.0, 45.0), vec![0.0]);
+    }
+
+    /// A body temperature heating towards 40 °C then cooling at 0.5 °C/min, then resting.
+    fn smooth_temperature() -> Vec<f64> {
+        (0..20_000)
+            .map(|i| {
+                let t = f64::from(i);
+                if t < 8000.0 {
+                    20.0 + 20.0 * (1.0 - (-t / 1200.0).exp())
+                } else {
+                    let top = 20.0 + 20.0 * (1.0 - (-8000.0f64 / 1200.0).exp());
+                    (top - (t - 8000.0) / 120.0).max(-5.0)
+                }
+            })
+            .collect()
+    }
+
+    /// The quantum is read from a rounded reading, and none from a continuous one.
+    #[test]
+    fn quantum_is_read_from_the_reading() {
+        let body = smooth_temperature();
+        for q in [0.01, 0.0625, 0.25] {
+            let r: Vec<f64> = body.iter().map(|t| (t / q).round() * q).collect();
+            assert_eq!(read_quantum(&r), Some((q * 1e4_f64).round() / 1e4), "q {q}");
+        }
+        let noisy: Vec<f64> = body
+            .iter()
+            .enumerate()
+            .map(|(i, t)| t + 0.003 * (i as f64 * 1.7).sin() * (i as f64 * 0.37).cos())
+            .collect();
+        assert_eq!(read_quantum(&noisy), None);
+        assert_eq!(read_quantum(&[1.0; 100]), None);
+    }
+
+    /// De-quantising a coarse reading recovers the temperature and its rate: errors a
+    /// fraction of the rounding's.
+    #[test]
+    fn dequantise_recovers_temperature_and_rate() {
+        let body = smooth_temperature();
+        let t: Vec<f64> = (0..body.len()).map(|i| i as f64).collect();
+        let q = 0.25;
+        let read: Vec<f64> = body.iter().map(|v| (v / q).round() * q).collect();
+        let rec = dequantise(&read, q);
+        let rms = |a: &[f64], b: &[f64]| {
+            let s: f64 = a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum();
+            (s / a.len() as f64).sqrt()
+        };
+        let (e_read, e_rec) = (rms(&read, &body), rms(&rec, &body));
+        assert!(e_rec < 0.35 * e_read, "{e_rec} vs {e_read}");
+        let rate_true = estimate_rate(&body, &t, 1.0).expect("rate");
+        let rate_read = estimate_rate(&read, &t, 1.0).expect("rate");
+        let rate_rec = estimate_rate(&rec, &t, 1.0).expect("rate");
+        let err = |r: &[f64]| rms(r, &rate_true);
+        assert!(
+            err(&rate_rec) < 0.35 * err(&rate_read),
+            "{} vs {}",
+            err(&rate_rec),
+            err(&rate_read)
+        );
+        // Nothing to undo: an unquantised series is returned as it is where it never jumps.
+        assert_eq!(dequantise(&[1.0; 10], 0.1), vec![1.0; 10]);
+    }
+}

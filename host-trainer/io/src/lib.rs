@@ -1,0 +1,11 @@
+//! Recording I/O for the RLG toolchain: the chamber recording (CSV in, CSV out), burst
+//! resampling, temperature-cycle spans, atomic file writes, the paper's Table 1 and PNG plots.
+//!
+//! The bottom of the host crates: it depends on none of them.
+
+pub mod atomic;
+pub mod cycles;
+pub mod plot;
+pub mod recording;
+pub mod resample;
+pub mod table1;
