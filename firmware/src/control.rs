@@ -4,28 +4,12 @@
 //! (hold the last good rate, pass the raw rate through) apply to a dead sensor exactly as to an
 //! implausible reading; the loop only counts the driver errors.
 
-use compensator_core::{Compensated, Compensator, ModelTable, SensorLimits, Status};
+use compensator_core::{Compensator, ModelTable, SensorLimits, Status};
 use embedded_hal::delay::DelayNs;
 
-use crate::sensor::{ErrorKind, RateSensor, SensorError, TemperatureSensor};
+use crate::record::Record;
+use crate::sensor::{RateSensor, SensorError, TemperatureSensor};
 use crate::summary::Summary;
-
-/// One processed sample: inputs as read and the compensator's output.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Record {
-    /// Sample number since start (one per period).
-    pub index: u32,
-    /// Temperature as fed to the compensator, °C (NaN when the sensor failed).
-    pub temp_c: f32,
-    /// Gyro rate as fed to the compensator, °/h (NaN when the sensor failed).
-    pub gyro_dph: f32,
-    /// Compensated rate, correction and status bits.
-    pub out: Compensated,
-    /// The temperature driver's error, if it failed.
-    pub temp_error: Option<ErrorKind>,
-    /// The gyro driver's error, if it failed.
-    pub rate_error: Option<ErrorKind>,
-}
 
 /// The loop state: the compensator, both sensors and the running summary.
 pub struct ControlLoop<'m, T, R, const D: usize> {
@@ -124,6 +108,7 @@ impl<'m, T: TemperatureSensor, R: RateSensor, const D: usize> ControlLoop<'m, T,
 mod tests {
     use super::*;
     use crate::replay::{channels, ReplayData};
+    use crate::sensor::ErrorKind;
     use compensator_core::{Feature, ModelSpec, RateFilter, Status};
 
     fn table() -> ModelTable<2, 2> {

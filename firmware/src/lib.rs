@@ -3,6 +3,7 @@
 //! * [`sensor`]: the `TemperatureSensor` / `RateSensor` traits a board driver implements.
 //! * [`replay`]: a recording replayed through those traits (the QEMU image's input).
 //! * [`control`]: the 1 Hz loop around [`compensator_core::Compensator`].
+//! * [`record`]: one processed sample of that loop.
 //! * [`summary`]: counts per status bit and update cost, for the log summary.
 //! * [`wire`]: the line format of the sample stream the QEMU image writes.
 //! * [`model_table`]: the model flashed with the image.
@@ -22,10 +23,12 @@ pub mod model_table;
 pub mod model_table {
     include!(concat!(env!("OUT_DIR"), "/model_table.rs"));
 }
+pub mod record;
 pub mod replay;
 pub mod sensor;
 pub mod summary;
 pub mod wire;
 
-pub use control::{ControlLoop, Record};
+pub use control::ControlLoop;
+pub use record::Record;
 pub use sensor::{ErrorKind, RateSensor, SensorError, TemperatureSensor};

@@ -2,7 +2,7 @@
 
 use compensator_core::Status;
 
-use crate::control::Record;
+use crate::record::Record;
 
 /// Every status bit with the name used in the log summary, in bit order.
 pub const STATUS_BITS: [(Status, &str); 6] = [

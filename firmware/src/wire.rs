@@ -12,7 +12,7 @@
 //! The image writes these lines to the semihosting *stderr* stream, so they never interleave
 //! with the binary defmt frames on stdout.
 
-use crate::control::Record;
+use crate::record::Record;
 
 /// Bytes in one `S` line, newline included.
 pub const RECORD_LINE_LEN: usize = 50;

@@ -280,23 +280,6 @@ impl WithPhase for Term {
     }
 }
 
-/// A bias term with its amplitude set to 1 (the column of its amplitude), `None` for terms
-/// that have no single amplitude (the polynomial, rate terms, sensor and noise terms).
-pub fn unit_amplitude(term: &Term) -> Option<Term> {
-    let mut t = term.clone();
-    match &mut t {
-        Term::GradientLag { gain, .. } => *gain = 1.0,
-        Term::Hysteresis { height_dph, .. } => *height_dph = 1.0,
-        Term::Warmup { amplitude_dph, .. } => *amplitude_dph = 1.0,
-        Term::ModeHop { step_dph, .. } => *step_dph = 1.0,
-        Term::Backscatter { amplitude_dph, .. } => *amplitude_dph = 1.0,
-        Term::Periodic { amplitude_dph, .. } => *amplitude_dph = 1.0,
-        Term::Aging { rate_dph_per_day } => *rate_dph_per_day = 1.0,
-        _ => return None,
-    }
-    Some(t)
-}
-
 /// `n` log-spaced single-parameter points from `lo` to `hi`.
 fn log_grid(lo: f64, hi: f64, n: usize) -> Vec<Vec<f64>> {
     let hi = hi.max(lo * 1.01);

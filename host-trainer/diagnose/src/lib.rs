@@ -19,12 +19,17 @@
 //!
 //! The diagnosis reads only the recording and the model, never a truth sidecar.
 
+mod bootstrap;
 pub mod candidates;
+mod explain;
 pub mod linalg;
 pub mod locate;
 pub mod noise;
 pub mod plots;
 pub mod prepare;
+mod refine;
+mod scan;
+mod score;
 mod search;
 pub mod variance;
 
@@ -37,7 +42,7 @@ use std::collections::BTreeMap;
 pub use candidates::Family;
 pub use locate::Span;
 pub use prepare::{PhysicsModel, Prepared};
-pub use search::{heldout_metrics, HeldOut};
+pub use score::{heldout_metrics, HeldOut};
 
 /// Why a diagnosis could not run.
 #[derive(Debug, thiserror::Error)]

@@ -449,7 +449,7 @@ pub fn baseline_columns(model: &PhysicsModel, drive: &DriveSeries) -> Vec<Column
                 }
             }
             other if other.role() == Role::Bias => {
-                if let Some(u) = super::candidates::unit_amplitude(other) {
+                if let Some(u) = other.unit_amplitude() {
                     cols.push(Column {
                         name: format!("{}.amplitude", other.name()),
                         values: contribution(&u, t, x, r),

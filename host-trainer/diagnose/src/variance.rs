@@ -16,7 +16,7 @@ use rand_distr::{ChiSquared, Distribution};
 
 use super::linalg::{dot, Basis};
 use super::prepare::Prepared;
-use super::search::{delta_bic, CHUNK_BLOCKS, FOLDS};
+use super::score::{delta_bic, CHUNK_BLOCKS, FOLDS};
 use rlg_physics::Term;
 
 /// The block log-variances of a recording and the test's design.

@@ -273,6 +273,23 @@ impl Term {
         }
     }
 
+    /// A bias term with its amplitude set to 1 (the column of its amplitude), `None` for terms
+    /// that have no single amplitude (the polynomial, rate terms, sensor and noise terms).
+    pub fn unit_amplitude(&self) -> Option<Term> {
+        let mut t = self.clone();
+        match &mut t {
+            Term::GradientLag { gain, .. } => *gain = 1.0,
+            Term::Hysteresis { height_dph, .. } => *height_dph = 1.0,
+            Term::Warmup { amplitude_dph, .. } => *amplitude_dph = 1.0,
+            Term::ModeHop { step_dph, .. } => *step_dph = 1.0,
+            Term::Backscatter { amplitude_dph, .. } => *amplitude_dph = 1.0,
+            Term::Periodic { amplitude_dph, .. } => *amplitude_dph = 1.0,
+            Term::Aging { rate_dph_per_day } => *rate_dph_per_day = 1.0,
+            _ => return None,
+        }
+        Some(t)
+    }
+
     /// What the term acts on.
     pub fn role(&self) -> Role {
         match self {

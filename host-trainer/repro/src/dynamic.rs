@@ -20,8 +20,8 @@ use indicatif::ProgressBar;
 
 use compensator_core::Feature;
 
-use crate::pipeline::{self, DynamicRun};
-use crate::sparse_eval::{self, Recipe};
+use crate::pipeline::{self, DynamicRun, Recipe};
+use crate::sparse_eval;
 use rlg_eval::baselines::{eq11, paper_candidates, stepwise, StepwiseFit, StepwiseOptions};
 use rlg_eval::metrics::allan::{
     angle_random_walk_dph_rt_h, bias_instability_dph, octave_clusters, overlapping_adev,
@@ -223,7 +223,7 @@ pub fn reproduce(opts: &DynamicOptions, progress: &ProgressBar) -> anyhow::Resul
         reduction: Some((Reduction::FIXED_SIZE, opts.board_vectors)),
         block: opts.block,
     };
-    let board_model = sparse_eval::train_first_cycle(
+    let board_model = pipeline::train_first_cycle(
         &run,
         &recipe,
         tuned.sigma,

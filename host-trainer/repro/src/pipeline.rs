@@ -8,14 +8,14 @@
 
 use indicatif::ProgressBar;
 
-use crate::sparse_eval::{train_first_cycle, Recipe};
 use rlg_io::cycles::cycle_spans;
 use rlg_io::recording::Recording;
 use rlg_simulate::{simulate, Scenario};
 use rlg_train::dataset::{self, Dataset, RecordingSelection};
-use rlg_train::lssvm::sparse::Reduction;
+use rlg_train::lssvm::sparse::{train_reduced, Reduction};
 use rlg_train::lssvm::tune::{tune, Grid, Tuned};
-use rlg_train::model::ModelFile;
+use rlg_train::lssvm::Lssvm;
+use rlg_train::model::{ModelFile, Provenance};
 pub use rlg_train::protocol::{CV, RATE_TAU_S, SUPPORT_VECTORS, TRAIN_BLOCK};
 
 /// The shipped dynamic scenario (TOML text).
@@ -50,6 +50,78 @@ impl DynamicRun {
     pub fn train_end_s(&self) -> f64 {
         self.cycles.first().map_or(f64::INFINITY, |c| c.1)
     }
+}
+
+/// How a model was trained on the first cycle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Recipe {
+    /// `None`: the exact model; otherwise the reduction and its budget.
+    pub reduction: Option<(Reduction, usize)>,
+    /// Block averaging of the training samples (100: the paper's 100 s means; 1: raw 1 Hz).
+    pub block: usize,
+}
+
+impl Recipe {
+    fn data(&self) -> String {
+        if self.block == 1 {
+            "raw 1 Hz".to_string()
+        } else {
+            format!("{} s means", self.block)
+        }
+    }
+
+    /// Human-readable label, e.g. `fixed-size M=64 on raw 1 Hz`.
+    pub fn label(&self) -> String {
+        match self.reduction {
+            None => format!("exact on {}", self.data()),
+            Some((r, m)) => format!("{} M={m} on {}", r.name(), self.data()),
+        }
+    }
+}
+
+/// Trains a model on the first cycle of `run` with `recipe`, σ and c; `command` is recorded
+/// in the provenance (for the board's default table: `DEFAULT_TABLE_COMMAND`).
+///
+/// The default table's reduced model is
+/// `train_first_cycle(&run, &Recipe { reduction: Some((Reduction::FIXED_SIZE, 64)), block:
+/// TRAIN_BLOCK }, SIGMA, C, DEFAULT_TABLE_COMMAND)`.
+pub fn train_first_cycle(
+    run: &DynamicRun,
+    recipe: &Recipe,
+    sigma: f64,
+    c: f64,
+    command: &str,
+) -> anyhow::Result<ModelFile> {
+    let data = first_cycle_data(run, recipe.block)?;
+    let model = match recipe.reduction {
+        None => Lssvm::train(&data.features, &data.x, &data.y_dph, sigma, c)?,
+        Some((method, budget)) => train_reduced(
+            &data.features,
+            &data.x,
+            &data.y_dph,
+            sigma,
+            c,
+            budget,
+            method,
+        )?,
+    };
+    let provenance = Provenance::from_bytes(
+        &format!(
+            "{} (seed {}, first cycle)",
+            DYNAMIC_SCENARIO_PATH, DYNAMIC_SEED
+        ),
+        DYNAMIC_SCENARIO_TOML.as_bytes(),
+        command,
+    );
+    Ok(ModelFile::from_trained(
+        model,
+        &data.x,
+        &data.y_dph,
+        RATE_TAU_S,
+        data.dt_s,
+        None,
+        provenance,
+    )?)
 }
 
 /// Simulates the shipped dynamic scenario with the reference seed.

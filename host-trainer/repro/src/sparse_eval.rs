@@ -10,42 +10,15 @@
 
 use compensator_core::{Compensator, Feature, SensorLimits};
 
-use crate::pipeline::{self, DynamicRun};
+use crate::pipeline::{self, DynamicRun, Recipe};
 use rlg_eval::metrics::stability::bias_stability_dph;
 use rlg_train::export;
 use rlg_train::features;
-use rlg_train::lssvm::sparse::{train_reduced, Reduction};
-use rlg_train::model::{ModelFile, Provenance};
+use rlg_train::lssvm::sparse::Reduction;
+use rlg_train::model::ModelFile;
 
 /// The stability window, samples (100 s at 1 Hz).
 pub const WINDOW: usize = 100;
-
-/// How a model was trained on the first cycle.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Recipe {
-    /// `None`: the exact model; otherwise the reduction and its budget.
-    pub reduction: Option<(Reduction, usize)>,
-    /// Block averaging of the training samples (100: the paper's 100 s means; 1: raw 1 Hz).
-    pub block: usize,
-}
-
-impl Recipe {
-    fn data(&self) -> String {
-        if self.block == 1 {
-            "raw 1 Hz".to_string()
-        } else {
-            format!("{} s means", self.block)
-        }
-    }
-
-    /// Human-readable label, e.g. `fixed-size M=64 on raw 1 Hz`.
-    pub fn label(&self) -> String {
-        match self.reduction {
-            None => format!("exact on {}", self.data()),
-            Some((r, m)) => format!("{} M={m} on {}", r.name(), self.data()),
-        }
-    }
-}
 
 /// Held-out result of one model.
 #[derive(Clone, Debug, PartialEq)]
@@ -66,52 +39,6 @@ pub struct HeldOut {
     pub board_b100_dph: f64,
     /// 100 s stability after the f64 model on the host features, °/h.
     pub f64_b100_dph: f64,
-}
-
-/// Trains a model on the first cycle of `run` with `recipe`, σ and c; `command` is recorded
-/// in the provenance (for the board's default table: `pipeline::DEFAULT_TABLE_COMMAND`).
-///
-/// The default table's reduced model is
-/// `train_first_cycle(&run, &Recipe { reduction: Some((Reduction::FIXED_SIZE, 64)), block:
-/// pipeline::TRAIN_BLOCK }, pipeline::SIGMA, pipeline::C, pipeline::DEFAULT_TABLE_COMMAND)`.
-pub fn train_first_cycle(
-    run: &DynamicRun,
-    recipe: &Recipe,
-    sigma: f64,
-    c: f64,
-    command: &str,
-) -> anyhow::Result<ModelFile> {
-    let data = pipeline::first_cycle_data(run, recipe.block)?;
-    let model = match recipe.reduction {
-        None => rlg_train::lssvm::Lssvm::train(&data.features, &data.x, &data.y_dph, sigma, c)?,
-        Some((method, budget)) => train_reduced(
-            &data.features,
-            &data.x,
-            &data.y_dph,
-            sigma,
-            c,
-            budget,
-            method,
-        )?,
-    };
-    let provenance = Provenance::from_bytes(
-        &format!(
-            "{} (seed {}, first cycle)",
-            pipeline::DYNAMIC_SCENARIO_PATH,
-            pipeline::DYNAMIC_SEED
-        ),
-        pipeline::DYNAMIC_SCENARIO_TOML.as_bytes(),
-        command,
-    );
-    Ok(ModelFile::from_trained(
-        model,
-        &data.x,
-        &data.y_dph,
-        pipeline::RATE_TAU_S,
-        data.dt_s,
-        None,
-        provenance,
-    )?)
 }
 
 /// The board's output on the held-out cycles of `run`: `model` converted to the f32 table
@@ -156,7 +83,7 @@ pub fn evaluate(run: &DynamicRun, model: &ModelFile) -> anyhow::Result<(f64, f64
 /// Trains with `recipe` on the first cycle and evaluates on the others.
 pub fn held_out(run: &DynamicRun, recipe: &Recipe, sigma: f64, c: f64) -> anyhow::Result<HeldOut> {
     let t0 = std::time::Instant::now();
-    let model = train_first_cycle(
+    let model = pipeline::train_first_cycle(
         run,
         recipe,
         sigma,

@@ -26,7 +26,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
-use super::solve::gauss;
+use super::kernel::gauss;
 use super::LssvmError;
 
 /// Eigenvalues of K_MM below this fraction of the largest are dropped from the Nyström map:

@@ -26,9 +26,9 @@ use faer::prelude::*;
 use faer::{Accum, Par};
 use rayon::prelude::*;
 
+use super::kernel::gauss;
 use super::packed::PackedLower;
 use super::pivoted::LowRank;
-use super::solve::gauss;
 
 /// Most CG steps before giving up (LAPACK's `dsposv` allows 30 refinement steps).
 pub const MAX_STEPS: usize = 30;

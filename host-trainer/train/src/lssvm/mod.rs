@@ -11,6 +11,7 @@
 //! [`Lssvm`] ties them together: train on raw features, predict on raw features.
 
 pub mod fixed_size;
+pub mod kernel;
 pub mod mixed;
 pub mod packed;
 pub mod pivoted;
@@ -22,8 +23,9 @@ pub mod tune;
 
 use serde::{Deserialize, Serialize};
 
+pub use kernel::kernel_matrix;
 pub use scaling::Scaling;
-pub use solve::{kernel_matrix, loo_residuals, solve, solve_dense_reference, Solution};
+pub use solve::{loo_residuals, solve, solve_dense_reference, Solution};
 
 /// Why an LS-SVM could not be trained.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -221,10 +223,7 @@ impl Lssvm {
             .support
             .iter()
             .zip(&self.alpha_dph)
-            .map(|(sv, a)| {
-                let d2: f64 = sv.iter().zip(z).map(|(s, v)| (v - s) * (v - s)).sum();
-                a * (-d2 * inv).exp()
-            })
+            .map(|(sv, a)| a * kernel::gauss(sv, z, inv))
             .sum();
         sum + self.bias_dph
     }

@@ -11,7 +11,7 @@
 
 use rayon::prelude::*;
 
-use super::solve::gauss;
+use super::kernel::gauss;
 
 /// Column blocks of [`PackedLower::mul`] (fixed: the sum order must not depend on threads).
 const BLOCKS: usize = 16;

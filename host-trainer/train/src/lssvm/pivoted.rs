@@ -17,7 +17,7 @@ use faer::linalg::matmul::matmul;
 use faer::prelude::*;
 use faer::{Accum, Par, Side};
 
-use super::solve::gauss;
+use super::kernel::gauss;
 
 /// The preconditioner P = L·Lᵀ + D with D = diag(d) + I/c.
 pub struct LowRank {

@@ -23,6 +23,7 @@
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 
+use super::kernel::gauss;
 use super::{solve, LssvmError};
 
 /// How the out-of-sample error of a (σ, c) is estimated.
@@ -237,10 +238,7 @@ fn score(
             let f: f64 = zt
                 .iter()
                 .zip(&sol.solution.alpha)
-                .map(|(s, a)| {
-                    let d2: f64 = s.iter().zip(&z[i]).map(|(p, q)| (p - q) * (p - q)).sum();
-                    a * (-d2 * inv).exp()
-                })
+                .map(|(s, a)| a * gauss(s, &z[i], inv))
                 .sum::<f64>()
                 + sol.solution.bias
                 + lin

@@ -1,0 +1,59 @@
+//! The plain-words explanation of a finding.
+
+use std::collections::BTreeMap;
+
+use super::candidates::Family;
+use super::Figures;
+
+/// Plain-words explanation of a finding.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn explain(
+    f: Family,
+    p: &BTreeMap<String, f64>,
+    u: &BTreeMap<String, f64>,
+    dbic: f64,
+    thr: f64,
+    before: &Figures,
+    after: &Figures,
+    where_: &[super::Span],
+) -> String {
+    let pu = |k: &str| {
+        format!(
+            "{k} = {:.4} ± {:.2}",
+            p.get(k).copied().unwrap_or(f64::NAN),
+            u.get(k).copied().unwrap_or(f64::NAN)
+        )
+    };
+    let mech = match f {
+        Family::SensorLag => format!("the temperature sensor lags the gyro body ({}); the model, driven by the late reading, misplaces every temperature-dependent bias during ramps", pu("tau_s")),
+        Family::GradientLag => format!("a bias follows the rate of temperature change through a thermal lag ({}, {} °/h per °C/s): it persists after each ramp ends", pu("tau_s"), pu("gain")),
+        Family::Hysteresis => format!("the bias differs between heating and cooling at the same temperature ({}, {} °/h)", pu("width_c"), pu("height_dph")),
+        Family::Warmup => format!("a transient decays after power-on ({} °/h, {})", pu("amplitude_dph"), pu("tau_s")),
+        Family::ModeHop => format!("the bias steps by {} °/h when the temperature crosses {} °C ({} °C switching hysteresis)", pu("step_dph"), pu("temp_c"), pu("hysteresis_c")),
+        Family::Backscatter => format!("a ripple periodic in temperature ({}, {} °/h), as backscatter/lock-in varies with cavity length", pu("period_c"), pu("amplitude_dph")),
+        Family::Periodic => format!("a ripple periodic in time ({}, {} °/h), an external disturbance", pu("period_s"), pu("amplitude_dph")),
+        Family::Aging => format!("the bias drifts linearly in time ({} °/h per day)", pu("rate_dph_per_day")),
+        Family::Heteroscedastic => format!("the 1 Hz white noise grows away from {} °C as 1 + k·((T − ref)/30)² ({}); the mean model is unchanged, so the RMS and 100 s stability below are too, and the BIC adds the held-out gain of the block log-variance model", pu("ref_c"), pu("k")),
+        Family::TempQuantization => format!("the temperature reading is rounded to {} °C, read from the recorded values; driven by the staircase, the model sees false temperature steps and dT/dt spikes, which the reconstructed (de-quantised) temperature removes", pu("step_c")),
+    };
+    let wh = match where_.first() {
+        Some(w) => format!(
+            " The effect is largest in {} span(s), the first {:.0}–{:.0} s ({}, {:.1}–{:.1} °C).",
+            where_.len(),
+            w.t_start_s,
+            w.t_end_s,
+            w.phase,
+            w.temp_lo_c,
+            w.temp_hi_c
+        ),
+        None => String::new(),
+    };
+    format!(
+        "{}: {mech}. Adding it changes the BIC of the whitened 100 s means by {dbic:.1} (significance threshold {thr:.1} from the noise-model bootstrap); on held-out data the 100 s stability goes from {:.2e} to {:.2e} °/h and the BIC from {:.1} to {:.1}.{wh}",
+        f.name(),
+        before.b100_dph,
+        after.b100_dph,
+        before.bic,
+        after.bic
+    )
+}

@@ -1,0 +1,113 @@
+//! The scan: every candidate point's whitened fit gain over the baseline, and the generic
+//! piecewise-constant basis that asks whether there is any structure at all.
+
+use rayon::prelude::*;
+
+use super::candidates::Family;
+use super::linalg::{added_fit, dot, Basis};
+use super::noise::Whitener;
+use super::prepare::Prepared;
+use super::score::delta_bic;
+
+pub(super) struct Point {
+    pub(super) family: Family,
+    pub(super) nl: Vec<f64>,
+    pub(super) cols_b: Vec<Vec<f64>>,
+}
+
+/// Whitened statistics of every candidate point.
+pub(super) struct Scan {
+    pub(super) n: usize,
+    pub(super) rss0: f64,
+    pub(super) drss: Vec<f64>,
+    pub(super) coef: Vec<Vec<f64>>,
+    pub(super) cperp: Vec<Vec<Vec<f64>>>,
+    pub(super) dbic: Vec<f64>,
+    pub(super) basis: Basis,
+    pub(super) gen_perp: Basis,
+    pub(super) gen_k: usize,
+    pub(super) gen_dbic: f64,
+}
+
+pub(super) fn scan(
+    ar: &Whitener,
+    base_b: &[Vec<f64>],
+    y_b: &[f64],
+    points: &[Point],
+    generic: &[Vec<f64>],
+) -> Scan {
+    let base_w: Vec<Vec<f64>> = base_b.iter().map(|c| ar.whiten(c)).collect();
+    let basis = Basis::new(&base_w);
+    let yw = basis.residual(&ar.whiten(y_b));
+    let n = yw.len();
+    let rss0 = dot(&yw, &yw);
+    let res: Vec<(Vec<Vec<f64>>, f64, Vec<f64>)> = points
+        .par_iter()
+        .map(|p| {
+            let cp: Vec<Vec<f64>> = p
+                .cols_b
+                .iter()
+                .map(|c| basis.residual(&ar.whiten(c)))
+                .collect();
+            let (d, a) = added_fit(&cp, &yw);
+            (cp, d, a)
+        })
+        .collect();
+    let mut cperp = Vec::with_capacity(res.len());
+    let (mut drss, mut coef, mut dbic) = (Vec::new(), Vec::new(), Vec::new());
+    for ((cp, d, a), p) in res.into_iter().zip(points) {
+        dbic.push(delta_bic(n, rss0, d, p.family.n_params()));
+        cperp.push(cp);
+        drss.push(d);
+        coef.push(a);
+    }
+    let gen_w: Vec<Vec<f64>> = generic
+        .iter()
+        .map(|c| basis.residual(&ar.whiten(c)))
+        .collect();
+    let gen_perp = Basis::new(&gen_w);
+    let gen_k = gen_perp.q.len();
+    let r = gen_perp.residual(&yw);
+    let gen_dbic = delta_bic(n, rss0, rss0 - dot(&r, &r), gen_k);
+    Scan {
+        n,
+        rss0,
+        drss,
+        coef,
+        cperp,
+        dbic,
+        basis,
+        gen_perp,
+        gen_k,
+        gen_dbic,
+    }
+}
+
+/// Piecewise-constant columns in time (12 chunks) and in temperature (8 bands): a generic
+/// basis for "is there any structure at all", with no physics in it.
+pub(super) fn generic_columns(prep: &Prepared) -> Vec<Vec<f64>> {
+    let nb = prep.nb();
+    let mut cols = Vec::new();
+    for c in 1..12 {
+        cols.push(
+            (0..nb)
+                .map(|b| f64::from(u8::from(b * 12 / nb == c)))
+                .collect(),
+        );
+    }
+    let mut sorted = prep.temp_b.clone();
+    sorted.sort_by(f64::total_cmp);
+    let edges: Vec<f64> = (1..8).map(|k| sorted[k * nb / 8]).collect();
+    for w in edges
+        .windows(2)
+        .chain(std::iter::once(&[edges[6], f64::INFINITY][..]))
+    {
+        cols.push(
+            prep.temp_b
+                .iter()
+                .map(|t| f64::from(u8::from(*t >= w[0] && *t < w[1])))
+                .collect(),
+        );
+    }
+    cols
+}
