@@ -13,9 +13,11 @@
 //! * [`fixed`]: integer-only evaluation of Eq. (10) for FPU-less boards.
 //! * [`crc`]: the table's CRC-32, computed at export and checked at boot.
 //! * [`lssvm`]: f32 evaluation of Eq. (10).
+//! * [`physics`]: the recursive physics primitives (lag, play, lead, decay), generic over
+//!   the float type: f32 here, f64 in the host's simulator and diagnosis.
 //! * [`rate`]: the recursive dT/dt estimator shared by the trainer and the board.
 //! * [`compensator`]: the 1 Hz update that turns (temperature, gyro rate) into a compensated rate.
-#![cfg_attr(not(test), no_std)]
+#![cfg_attr(not(any(test, feature = "std")), no_std)]
 
 pub mod compensator;
 pub mod crc;
@@ -23,6 +25,7 @@ pub mod fastexp;
 pub mod features;
 pub mod fixed;
 pub mod lssvm;
+pub mod physics;
 pub mod rate;
 pub mod table;
 

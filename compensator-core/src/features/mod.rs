@@ -22,6 +22,7 @@
 //! held estimate and leaves the play state; a restart of the estimator ([`FeatureBank::reset`])
 //! clears lag and play but not the time since power-on.
 
+use crate::physics::{decay, lead, play, FirstOrderLag};
 use crate::rate::RateEstimate;
 use crate::table::Feature;
 
@@ -29,7 +30,7 @@ use crate::table::Feature;
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum State {
     None,
-    Lag { keep: f32, g: f32 },
+    Lag { keep: f32, lag: FirstOrderLag<f32> },
     Play { half_c: f32, y: Option<f32> },
     Decay { keep: f32, w: f32 },
 }
@@ -50,8 +51,8 @@ impl<const D: usize> FeatureBank<D> {
             Feature::TempGradLagCPerS { tau_s } => State::Lag {
                 // 1 − e^(−dt/τ) is the gain; keep = e^(−dt/τ). τ = 0 (rejected by parse)
                 // would give keep = 0, i.e. no lag, rather than a NaN.
-                keep: libm::expf(-dt_s / tau_s as f32),
-                g: 0.0,
+                keep: decay(dt_s, tau_s as f32),
+                lag: FirstOrderLag::new(tau_s as f32, 0.0),
             },
             Feature::TempPlayC { width_mc } => State::Play {
                 half_c: width_mc as f32 * 0.0005,
@@ -59,7 +60,7 @@ impl<const D: usize> FeatureBank<D> {
             },
             Feature::WarmupDecay { tau_s } => State::Decay {
                 // τ = 0 is rejected by parse; it would give keep = 0 (an instant decay).
-                keep: libm::expf(-dt_s / tau_s as f32),
+                keep: decay(dt_s, tau_s as f32),
                 w: 1.0,
             },
             _ => State::None,
@@ -79,20 +80,10 @@ impl<const D: usize> FeatureBank<D> {
         for st in &mut self.states {
             match st {
                 State::None | State::Decay { .. } => {}
-                State::Lag { keep, g } => *g = r + *keep * (*g - r),
-                State::Play { half_c, y } => {
-                    let prev = y.unwrap_or(temp_c);
-                    let up = temp_c - *half_c;
-                    let down = temp_c + *half_c;
-                    let v = if prev < up {
-                        up
-                    } else if prev > down {
-                        down
-                    } else {
-                        prev
-                    };
-                    *y = Some(v);
+                State::Lag { keep, lag } => {
+                    lag.step_held(r, *keep);
                 }
+                State::Play { half_c, y } => *y = Some(play(y.unwrap_or(temp_c), temp_c, *half_c)),
             }
         }
         let x = self.values(temp_c, est);
@@ -114,8 +105,8 @@ impl<const D: usize> FeatureBank<D> {
     /// estimate, the play state holds.
     pub fn skip(&mut self, est: &RateEstimate) {
         for st in &mut self.states {
-            if let State::Lag { keep, g } = st {
-                *g = est.rate_c_per_s + *keep * (*g - est.rate_c_per_s);
+            if let State::Lag { keep, lag } = st {
+                lag.step_held(est.rate_c_per_s, *keep);
             }
         }
         self.advance();
@@ -126,7 +117,7 @@ impl<const D: usize> FeatureBank<D> {
         for st in &mut self.states {
             match st {
                 State::None | State::Decay { .. } => {}
-                State::Lag { g, .. } => *g = 0.0,
+                State::Lag { lag, .. } => *lag = FirstOrderLag::new(lag.tau_s, 0.0),
                 State::Play { y, .. } => *y = None,
             }
         }
@@ -138,8 +129,8 @@ impl<const D: usize> FeatureBank<D> {
         core::array::from_fn(|d| match (self.features[d], self.states[d]) {
             (Feature::TempC, _) => temp_c,
             (Feature::TempRateCPerS, _) => est.rate_c_per_s,
-            (Feature::TempLeadC { tau_s }, _) => temp_c + tau_s as f32 * est.rate_c_per_s,
-            (_, State::Lag { g, .. }) => g,
+            (Feature::TempLeadC { tau_s }, _) => lead(temp_c, tau_s as f32, est.rate_c_per_s),
+            (_, State::Lag { lag, .. }) => lag.y,
             (_, State::Play { y, .. }) => y.unwrap_or(temp_c),
             (_, State::Decay { w, .. }) => w,
             (Feature::TimeOnS, _) => self.periods as f32 * self.dt_s,

@@ -15,9 +15,10 @@
 use rayon::prelude::*;
 use statrs::distribution::{Binomial, DiscreteCDF};
 
-use crate::diagnose::{case_id, case_runs};
-use rlg_diagnose::{diagnose, Family, Options, PhysicsModel, Verdict};
+use crate::diagnose::{case_id, case_runs, Label};
+use rlg_diagnose::{diagnose, Family, Options, PhysicsModel};
 use rlg_eval::metrics::stability::bias_stability_gapless_dph;
+use rlg_physics::Mechanism;
 use rlg_train::model::Provenance;
 use rlg_train::protocol;
 
@@ -67,11 +68,11 @@ pub struct LoopCase {
     /// Benchmark case number.
     pub id: usize,
     /// Hidden mechanism.
-    pub truth: String,
+    pub truth: Mechanism,
     /// Profile description.
     pub profile: String,
     /// The diagnosis' top mechanism, or its verdict.
-    pub diagnosed: String,
+    pub diagnosed: Label,
     /// Features of the augmented model (`Display` form), base features excluded.
     pub added: Vec<String>,
     /// Whether cross-validation adopted the augmented model.
@@ -106,10 +107,7 @@ fn run_case(id: usize, fam: Family, seed: u64) -> anyhow::Result<LoopCase> {
     let [cal, test] =
         <[_; 2]>::try_from(runs).map_err(|_| anyhow::anyhow!("case {id}: expected two runs"))?;
     let d = diagnose(&cal.recording, &PhysicsModel::paper(), &Options::default())?;
-    let diagnosed = match (d.verdict, d.findings.first()) {
-        (Verdict::MissingPhysics, Some(f)) => f.mechanism.clone(),
-        (v, _) => format!("{v:?}"),
-    };
+    let diagnosed = Label::of(&d);
     let (aug, _) = augmented_features(&d);
     let base_inputs = Inputs::base();
     let added = aug
@@ -141,7 +139,7 @@ fn run_case(id: usize, fam: Family, seed: u64) -> anyhow::Result<LoopCase> {
     Ok(LoopCase {
         seed,
         id,
-        truth: fam.name().to_string(),
+        truth: fam.mechanism(),
         profile,
         diagnosed,
         added,
@@ -213,7 +211,7 @@ pub fn report_markdown(cases: &[LoopCase]) -> String {
     let mut groups: Vec<(String, Vec<&LoopCase>)> = FAMILIES
         .iter()
         .map(|f| {
-            let v: Vec<&LoopCase> = cases.iter().filter(|c| c.truth == f.name()).collect();
+            let v: Vec<&LoopCase> = cases.iter().filter(|c| c.truth == f.mechanism()).collect();
             (f.name().to_string(), v)
         })
         .collect();
@@ -221,11 +219,14 @@ pub fn report_markdown(cases: &[LoopCase]) -> String {
         "lags and hysteresis".to_string(),
         cases
             .iter()
-            .filter(|c| LAG_AND_HYSTERESIS.iter().any(|f| f.name() == c.truth))
+            .filter(|c| LAG_AND_HYSTERESIS.iter().any(|f| f.mechanism() == c.truth))
             .collect(),
     ));
     for (name, group) in &groups {
-        let right = group.iter().filter(|c| c.diagnosed == c.truth).count();
+        let right = group
+            .iter()
+            .filter(|c| c.diagnosed == Label::Mechanism(c.truth))
+            .count();
         let added = group.iter().filter(|c| !c.added.is_empty()).count();
         let adopted = group.iter().filter(|c| c.adopted).count();
         let agree = group
@@ -368,9 +369,9 @@ mod tests {
         let case = |id, adopted, aug: f64| LoopCase {
             seed: 1,
             id,
-            truth: "hysteresis".to_string(),
+            truth: Mechanism::Hysteresis,
             profile: "p".to_string(),
-            diagnosed: "hysteresis".to_string(),
+            diagnosed: Label::Mechanism(Mechanism::Hysteresis),
             added: vec!["temp_play_c(width_mc=5000) (linear)".to_string()],
             adopted,
             outcomes: [outcome(1.0, 1.0), outcome(aug, 0.9), outcome(aug, 0.9)],

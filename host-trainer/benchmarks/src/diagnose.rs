@@ -38,7 +38,7 @@ use rlg_diagnose::prepare::{baseline_columns, estimate_rate, prepare, PhysicsMod
 use rlg_diagnose::variance::{heldout_variance, heteroscedastic_detectability, log_scale};
 use rlg_diagnose::{diagnose, heldout_metrics, Diagnosis, Options, Verdict};
 use rlg_io::recording::Recording;
-use rlg_physics::{contribution, Axis, Term};
+use rlg_physics::{contribution, Axis, Mechanism, Term};
 use rlg_simulate::{
     simulate, truth_path, write_simulation, NoiseParams, Scenario, Segment, ThermalParams, Truth,
 };
@@ -87,6 +87,68 @@ impl BenchOptions {
     }
 }
 
+/// What a case hid, or what the diagnosis said of it: a mechanism of the term library,
+/// nothing, or structure no library term explains. In JSON and in the report its name: the
+/// mechanism's, `none` or `unexplained`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Label {
+    /// A mechanism of the term library.
+    Mechanism(Mechanism),
+    /// Nothing hidden; or the diagnosis found the recording consistent with the model.
+    None,
+    /// The diagnosis found structure but no library term for it.
+    Unexplained,
+}
+
+impl Label {
+    /// The label's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Label::Mechanism(m) => m.name(),
+            Label::None => "none",
+            Label::Unexplained => "unexplained",
+        }
+    }
+
+    /// The label of a name, `None` for a name that is none of them.
+    pub fn from_name(name: &str) -> Option<Label> {
+        match name {
+            "none" => Some(Label::None),
+            "unexplained" => Some(Label::Unexplained),
+            _ => Mechanism::from_name(name).map(Label::Mechanism),
+        }
+    }
+
+    /// The diagnosis' label: its first finding's mechanism, or its verdict.
+    pub fn of(d: &Diagnosis) -> Label {
+        match (d.verdict, d.findings.first()) {
+            (Verdict::MissingPhysics, Some(f)) => Label::Mechanism(f.mechanism),
+            (Verdict::UnexplainedStructure, _) => Label::Unexplained,
+            (Verdict::Consistent, _) | (Verdict::MissingPhysics, None) => Label::None,
+        }
+    }
+}
+
+impl std::fmt::Display for Label {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl Serialize for Label {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
+impl<'de> Deserialize<'de> for Label {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        Label::from_name(&name)
+            .ok_or_else(|| serde::de::Error::custom(format!("`{name}` is not a label")))
+    }
+}
+
 /// The scored outcome of one recording.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CaseResult {
@@ -94,8 +156,8 @@ pub struct CaseResult {
     pub id: usize,
     /// Profile description.
     pub profile: String,
-    /// Hidden term name, `none` when nothing is hidden.
-    pub truth: String,
+    /// The hidden mechanism, `none` when nothing is hidden.
+    pub truth: Label,
     /// Detectability D (see the module doc), from the truth.
     pub detectability: f64,
     /// The earlier definition, ‖P⊥ē‖/σ₁₀₀ (orthogonal part over the marginal σ of a 100 s
@@ -108,7 +170,7 @@ pub struct CaseResult {
     /// Share of the effect's 100 s-mean energy inside the baseline's span.
     pub energy_in_span: f64,
     /// The diagnosis' top mechanism, or its verdict when it names none.
-    pub predicted: String,
+    pub predicted: Label,
     /// Key parameter within tolerance (only for correct identifications).
     pub param_ok: Option<bool>,
     /// Relative error of the key parameter.
@@ -122,7 +184,7 @@ pub struct CaseResult {
     /// Diagnosis wall time, s.
     pub seconds: f64,
     /// Best candidate's ΔBIC and its bootstrap threshold (the evidence of the verdict).
-    pub best_delta_bic: (String, f64, f64),
+    pub best_delta_bic: (Label, f64, f64),
     /// Bootstrap p-values behind the verdict: the best candidate's, the reported finding's
     /// (if any) and the generic structure test's. With them [`CaseResult::predicted_at`]
     /// gives the verdict at any α up to the one the benchmark ran at.
@@ -153,17 +215,17 @@ impl CaseResult {
     /// resolution: candidates are significant in the order of their ΔBIC, so at a smaller α
     /// the finding is the run's finding if its p-value is at most α, and otherwise there is
     /// none (every candidate before it failed its held-out check).
-    pub fn predicted_at(&self, alpha: f64) -> String {
+    pub fn predicted_at(&self, alpha: f64) -> Label {
         if alpha >= self.alpha {
-            return self.predicted.clone();
+            return self.predicted;
         }
         let p = &self.p_values;
         if p.finding.is_some_and(|v| v <= alpha) {
-            self.predicted.clone()
+            self.predicted
         } else if p.best <= alpha || p.structure <= alpha {
-            "unexplained".into()
+            Label::Unexplained
         } else {
-            "none".into()
+            Label::None
         }
     }
 }
@@ -762,18 +824,14 @@ fn score(
     let truth = read_truth(truth_file)?;
     let prep = prepare(rec)?;
     let hidden = hidden_from_truth(&truth);
-    let predicted = match d.verdict {
-        Verdict::MissingPhysics => d.findings[0].mechanism.clone(),
-        Verdict::Consistent => "none".into(),
-        Verdict::UnexplainedStructure => "unexplained".into(),
-    };
+    let predicted = Label::of(d);
     let (s1, s100) = noise_sigmas(&truth.scenario.noise);
     let mut r = CaseResult {
         id,
         profile,
         truth: hidden
             .as_ref()
-            .map_or("none".into(), |t| t.name().to_string()),
+            .map_or(Label::None, |t| Label::Mechanism(t.mechanism())),
         detectability: 0.0,
         detectability_marginal: 0.0,
         peak_over_sigma1: 0.0,
@@ -789,9 +847,9 @@ fn score(
             .evidence
             .candidates
             .first()
-            .map_or((String::new(), 0.0, 0.0), |c| {
+            .map_or((Label::None, 0.0, 0.0), |c| {
                 (
-                    c.mechanism.clone(),
+                    Label::Mechanism(c.mechanism),
                     c.delta_bic,
                     d.evidence.delta_bic_threshold,
                 )
@@ -815,7 +873,7 @@ fn score(
         .evidence
         .candidates
         .iter()
-        .find(|c| c.mechanism == h.name())
+        .find(|c| c.mechanism == h.mechanism())
         .map(|c| c.p_value_alone);
     let e = effect(&h, &truth);
     let (dperp, e2, perp) = orthogonal_part(&prep, model, &e);
@@ -958,12 +1016,12 @@ pub fn report_markdown(results: &[CaseResult]) -> String {
             format!("{:.0} % ({a}/{b})", 100.0 * a as f64 / b as f64)
         }
     };
-    let hidden: Vec<&CaseResult> = results.iter().filter(|r| r.truth != "none").collect();
-    let nulls: Vec<&CaseResult> = results.iter().filter(|r| r.truth == "none").collect();
-    let fa = nulls.iter().filter(|r| r.predicted != "none").count();
+    let hidden: Vec<&CaseResult> = results.iter().filter(|r| r.truth != Label::None).collect();
+    let nulls: Vec<&CaseResult> = results.iter().filter(|r| r.truth == Label::None).collect();
+    let fa = nulls.iter().filter(|r| r.predicted != Label::None).count();
     let fa_mp = nulls
         .iter()
-        .filter(|r| r.predicted != "none" && r.predicted != "unexplained")
+        .filter(|r| matches!(r.predicted, Label::Mechanism(_)))
         .count();
     let _ = writeln!(o, "| measure | result | target |\n|---|---|---|");
     let _ = writeln!(
@@ -1001,7 +1059,10 @@ pub fn report_markdown(results: &[CaseResult]) -> String {
         .iter()
         .filter_map(|r| {
             let (t, f, u) = r.param?;
-            let tol = Family::from_name(&r.truth)?.key_parameter().1;
+            let Label::Mechanism(m) = r.truth else {
+                return None;
+            };
+            let tol = Family::of(m)?.key_parameter().1;
             Some((t, f, u, tol))
         })
         .filter(|(t, _, u, _)| *t != 0.0 && u.is_finite() && *u > 0.0)
@@ -1082,7 +1143,10 @@ pub fn report_markdown(results: &[CaseResult]) -> String {
             "| α | false alarms | top-1 D 3–5 | D 5–6 | D ≥ 6 | D 3–5 found if the family were known |\n|---|---|---|---|---|---|"
         );
         for a in alphas {
-            let fa = nulls.iter().filter(|r| r.predicted_at(a) != "none").count();
+            let fa = nulls
+                .iter()
+                .filter(|r| r.predicted_at(a) != Label::None)
+                .count();
             let band = |lo: f64, hi: f64| {
                 let set: Vec<&&CaseResult> = hidden
                     .iter()
@@ -1114,23 +1178,27 @@ pub fn report_markdown(results: &[CaseResult]) -> String {
         }
     }
     // Confusion matrix.
-    let mut cols: Vec<String> = Family::ALL.iter().map(|f| f.name().to_string()).collect();
-    cols.push("none".into());
-    cols.push("unexplained".into());
+    let mut cols: Vec<Label> = Family::ALL
+        .iter()
+        .map(|f| Label::Mechanism(f.mechanism()))
+        .collect();
+    cols.push(Label::None);
+    cols.push(Label::Unexplained);
     let _ = writeln!(
         o,
         "\nConfusion matrix (rows: hidden term, columns: diagnosis):\n"
     );
-    let _ = writeln!(o, "| truth \\ diagnosed | {} |", cols.join(" | "));
+    let names: Vec<&str> = cols.iter().map(|c| c.name()).collect();
+    let _ = writeln!(o, "| truth \\ diagnosed | {} |", names.join(" | "));
     let _ = writeln!(o, "|---|{}", "---|".repeat(cols.len()));
     for row in cols.iter().take(cols.len() - 1) {
-        let rs: Vec<&CaseResult> = results.iter().filter(|r| &r.truth == row).collect();
+        let rs: Vec<&CaseResult> = results.iter().filter(|r| r.truth == *row).collect();
         if rs.is_empty() {
             continue;
         }
         let cells: Vec<String> = cols
             .iter()
-            .map(|c| rs.iter().filter(|r| &r.predicted == c).count().to_string())
+            .map(|c| rs.iter().filter(|r| r.predicted == *c).count().to_string())
             .collect();
         let _ = writeln!(o, "| {row} | {} |", cells.join(" | "));
     }
@@ -1237,19 +1305,19 @@ mod tests {
         let mut r = CaseResult {
             id: 0,
             profile: String::new(),
-            truth: "aging".into(),
+            truth: Label::Mechanism(Mechanism::Aging),
             detectability: 4.0,
             detectability_marginal: 0.0,
             peak_over_sigma1: 0.1,
             energy_in_span: 0.8,
-            predicted: "aging".into(),
+            predicted: Label::Mechanism(Mechanism::Aging),
             param_ok: None,
             param_rel_err: None,
             param: None,
             iou: None,
             gain_fraction: None,
             seconds: 0.0,
-            best_delta_bic: (String::new(), 0.0, 0.0),
+            best_delta_bic: (Label::None, 0.0, 0.0),
             p_values: PValues {
                 best: 0.004,
                 finding: Some(0.02),
@@ -1258,21 +1326,22 @@ mod tests {
             },
             alpha: 0.05,
         };
-        assert_eq!(r.predicted_at(0.05), "aging");
-        assert_eq!(r.predicted_at(0.1), "aging");
-        assert_eq!(r.predicted_at(0.02), "aging");
-        assert_eq!(r.predicted_at(0.01), "unexplained");
-        assert_eq!(r.predicted_at(0.003), "none");
+        let aging = Label::Mechanism(Mechanism::Aging);
+        assert_eq!(r.predicted_at(0.05), aging);
+        assert_eq!(r.predicted_at(0.1), aging);
+        assert_eq!(r.predicted_at(0.02), aging);
+        assert_eq!(r.predicted_at(0.01), Label::Unexplained);
+        assert_eq!(r.predicted_at(0.003), Label::None);
         r.p_values.structure = 0.001;
-        assert_eq!(r.predicted_at(0.003), "unexplained");
-        r.predicted = "none".into();
+        assert_eq!(r.predicted_at(0.003), Label::Unexplained);
+        r.predicted = Label::None;
         r.p_values = PValues {
             best: 0.2,
             finding: None,
             structure: 0.5,
             true_family_alone: None,
         };
-        assert_eq!(r.predicted_at(0.01), "none");
+        assert_eq!(r.predicted_at(0.01), Label::None);
     }
 
     #[test]
@@ -1280,11 +1349,11 @@ mod tests {
     fn quick_benchmark() {
         let dir = tempfile::tempdir().expect("temp dir");
         let r = run_benchmark(&BenchOptions::quick(1), dir.path()).expect("runs");
-        let hidden: Vec<_> = r.iter().filter(|c| c.truth != "none").collect();
+        let hidden: Vec<_> = r.iter().filter(|c| c.truth != Label::None).collect();
         let ok = hidden.iter().filter(|c| c.truth == c.predicted).count();
         let fa = r
             .iter()
-            .filter(|c| c.truth == "none" && c.predicted != "none")
+            .filter(|c| c.truth == Label::None && c.predicted != Label::None)
             .count();
         println!("{}", report_markdown(&r));
         // Measured with ten families at α 2 %: 18 of 20 named, 1 of 8 false alarms.

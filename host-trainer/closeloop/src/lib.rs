@@ -38,7 +38,7 @@ use indicatif::ProgressBar;
 use rlg_diagnose::{Diagnosis, Finding};
 use rlg_eval::metrics::stability::bias_stability_gapless_dph;
 use rlg_io::recording::Recording;
-use rlg_physics::Term;
+use rlg_physics::{Mechanism, Term};
 use rlg_train::dataset::{self, RecordingSelection};
 use rlg_train::export;
 use rlg_train::features;
@@ -63,8 +63,8 @@ pub enum Role {
 /// What the close loop does with one finding.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Suggestion {
-    /// The diagnosed mechanism (the physics library's name).
-    pub mechanism: String,
+    /// The diagnosed mechanism.
+    pub mechanism: Mechanism,
     /// The feature that carries it, if any.
     pub feature: Option<Feature>,
     /// How it enters the model.
@@ -135,10 +135,10 @@ fn unit(v: f64) -> Option<u32> {
 }
 
 /// The feature for a mechanism with its parameters (names of the physics library).
-pub fn feature_for(mechanism: &str, param: impl Fn(&str) -> Option<f64>) -> Suggestion {
+pub fn feature_for(mechanism: Mechanism, param: impl Fn(&str) -> Option<f64>) -> Suggestion {
     let s = |feature: Option<Feature>, reason: &str| Suggestion {
-        mechanism: mechanism.to_string(),
-        role: if mechanism == "sensor_lag" {
+        mechanism,
+        role: if mechanism == Mechanism::SensorLag {
             Role::ReplacesTemperature
         } else {
             Role::Linear
@@ -147,60 +147,63 @@ pub fn feature_for(mechanism: &str, param: impl Fn(&str) -> Option<f64>) -> Sugg
         reason: reason.to_string(),
     };
     match mechanism {
-        "sensor_lag" => match param("tau_s").and_then(unit) {
+        Mechanism::SensorLag => match param("tau_s").and_then(unit) {
             Some(tau_s) => s(
                 Some(Feature::TempLeadC { tau_s }),
                 "the body leads the late sensor reading by τ·dT/dt",
             ),
             None => s(None, "sensor_lag without a usable tau_s"),
         },
-        "gradient_lag" => match param("tau_s").and_then(unit) {
+        Mechanism::GradientLag => match param("tau_s").and_then(unit) {
             Some(tau_s) => s(
                 Some(Feature::TempGradLagCPerS { tau_s }),
                 "the bias follows the gradient lagged by τ, a history [T, dT/dt] does not hold",
             ),
             None => s(None, "gradient_lag without a usable tau_s"),
         },
-        "hysteresis" => match param("width_c").and_then(|w| unit(1000.0 * w)) {
+        Mechanism::Hysteresis => match param("width_c").and_then(|w| unit(1000.0 * w)) {
             Some(width_mc) => s(
                 Some(Feature::TempPlayC { width_mc }),
                 "the heating or cooling branch persists through holds, where dT/dt is 0",
             ),
             None => s(None, "hysteresis without a usable width_c"),
         },
-        "warmup" => match param("tau_s").and_then(unit) {
+        Mechanism::Warmup => match param("tau_s").and_then(unit) {
             Some(tau_s) => s(
                 Some(Feature::WarmupDecay { tau_s }),
                 "the transient decays as e^(−t/τ) from power-on",
             ),
             None => s(None, "warmup without a usable tau_s"),
         },
-        "backscatter" | "mode_hop" => s(
+        Mechanism::Backscatter | Mechanism::ModeHop => s(
             None,
             "a function of T, already an input; cross-validation chooses the kernel width it needs",
         ),
-        "periodic" | "aging" => s(
+        Mechanism::Periodic | Mechanism::Aging => s(
             None,
             "runs in absolute time, which the board's inputs do not carry and which would not repeat after calibration",
         ),
-        "heteroscedastic" => s(None, "changes the noise, not the bias: nothing to compensate"),
-        "temp_quantization" => s(
+        Mechanism::Heteroscedastic => s(None, "changes the noise, not the bias: nothing to compensate"),
+        Mechanism::TempQuantization => s(
             None,
             "the board reads the same rounded temperature: de-quantise the reading before the dT/dt estimator (not a bias feature)",
         ),
-        other => s(None, &format!("no feature is known for `{other}`")),
+        Mechanism::EarthRate | Mechanism::StaticPoly | Mechanism::RateTerms => s(
+            None,
+            "part of the paper's model, which [T, dT/dt] already carries",
+        ),
     }
 }
 
 /// [`feature_for`] a diagnosis finding.
 pub fn suggest(f: &Finding) -> Suggestion {
-    feature_for(&f.mechanism, |p| f.parameters.get(p).copied())
+    feature_for(f.mechanism, |p| f.parameters.get(p).copied())
 }
 
 /// [`feature_for`] a true term (for the oracle comparison on simulated data).
 pub fn suggest_from_term(t: &Term) -> Suggestion {
     let params = t.parameters();
-    feature_for(t.name(), |p| {
+    feature_for(t.mechanism(), |p| {
         params.iter().find(|(n, _)| n == p).map(|(_, v)| *v)
     })
 }
@@ -514,36 +517,41 @@ mod tests {
     fn every_library_mechanism_has_a_decision() {
         let p = |_: &str| Some(300.0);
         assert_eq!(
-            feature_for("sensor_lag", p).feature,
+            feature_for(Mechanism::SensorLag, p).feature,
             Some(Feature::TempLeadC { tau_s: 300 })
         );
         assert_eq!(
-            feature_for("gradient_lag", p).feature,
+            feature_for(Mechanism::GradientLag, p).feature,
             Some(Feature::TempGradLagCPerS { tau_s: 300 })
         );
         assert_eq!(
-            feature_for("hysteresis", |_| Some(2.5)).feature,
+            feature_for(Mechanism::Hysteresis, |_| Some(2.5)).feature,
             Some(Feature::TempPlayC { width_mc: 2500 })
         );
         assert_eq!(
-            feature_for("warmup", p).feature,
+            feature_for(Mechanism::Warmup, p).feature,
             Some(Feature::WarmupDecay { tau_s: 300 })
         );
         for m in [
-            "backscatter",
-            "mode_hop",
-            "periodic",
-            "aging",
-            "heteroscedastic",
-            "temp_quantization",
+            Mechanism::Backscatter,
+            Mechanism::ModeHop,
+            Mechanism::Periodic,
+            Mechanism::Aging,
+            Mechanism::Heteroscedastic,
+            Mechanism::TempQuantization,
+            Mechanism::EarthRate,
+            Mechanism::StaticPoly,
+            Mechanism::RateTerms,
         ] {
             let s = feature_for(m, p);
             assert!(s.feature.is_none() && !s.reason.is_empty(), "{m}");
         }
-        assert!(feature_for("sensor_lag", |_| Some(f64::NAN))
+        assert!(feature_for(Mechanism::SensorLag, |_| Some(f64::NAN))
             .feature
             .is_none());
-        assert!(feature_for("hysteresis", |_| Some(-1.0)).feature.is_none());
+        assert!(feature_for(Mechanism::Hysteresis, |_| Some(-1.0))
+            .feature
+            .is_none());
         // The true term's parameters reach the same mapping.
         let t = Term::Hysteresis {
             width_c: 4.0,
@@ -554,7 +562,7 @@ mod tests {
         // Roles: the play state is a linear term; the lead-corrected T replaces T.
         let i = Inputs::base().with(&s);
         assert_eq!(i.linear, [false, false, true]);
-        let lag = Inputs::base().with(&feature_for("sensor_lag", p));
+        let lag = Inputs::base().with(&feature_for(Mechanism::SensorLag, p));
         assert_eq!(
             lag.features,
             [Feature::TempLeadC { tau_s: 300 }, Feature::TempRateCPerS]

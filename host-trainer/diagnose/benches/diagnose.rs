@@ -34,7 +34,7 @@ fn bench(c: &mut Criterion) {
         "1-day 1 Hz recording ({} samples) diagnosed in {secs:.2} s (budget {ONE_DAY_BUDGET_S} s): {:?}, {}",
         rec.len(),
         d.verdict,
-        d.findings.first().map_or("no finding", |f| f.mechanism.as_str())
+        d.findings.first().map_or("no finding", |f| f.mechanism.name())
     );
     assert!(secs < ONE_DAY_BUDGET_S, "diagnosis took {secs:.2} s");
     let mut g = c.benchmark_group("diagnose");

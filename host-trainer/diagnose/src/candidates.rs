@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use super::prepare::{baseline_columns, read_quantum, DriveSeries, PhysicsModel, Prepared};
 use super::DiagnoseError;
-use rlg_physics::{contribution, Term};
+use rlg_physics::{contribution, Mechanism, Term};
 
 /// A family of candidate terms: one term of the physics library.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -51,20 +51,30 @@ impl Family {
         Family::TempQuantization,
     ];
 
+    /// The physics library's mechanism this family tests.
+    pub fn mechanism(self) -> Mechanism {
+        match self {
+            Family::SensorLag => Mechanism::SensorLag,
+            Family::GradientLag => Mechanism::GradientLag,
+            Family::Hysteresis => Mechanism::Hysteresis,
+            Family::Warmup => Mechanism::Warmup,
+            Family::ModeHop => Mechanism::ModeHop,
+            Family::Backscatter => Mechanism::Backscatter,
+            Family::Periodic => Mechanism::Periodic,
+            Family::Aging => Mechanism::Aging,
+            Family::Heteroscedastic => Mechanism::Heteroscedastic,
+            Family::TempQuantization => Mechanism::TempQuantization,
+        }
+    }
+
     /// The physics library's term name.
     pub fn name(self) -> &'static str {
-        match self {
-            Family::SensorLag => "sensor_lag",
-            Family::GradientLag => "gradient_lag",
-            Family::Hysteresis => "hysteresis",
-            Family::Warmup => "warmup",
-            Family::ModeHop => "mode_hop",
-            Family::Backscatter => "backscatter",
-            Family::Periodic => "periodic",
-            Family::Aging => "aging",
-            Family::Heteroscedastic => "heteroscedastic",
-            Family::TempQuantization => "temp_quantization",
-        }
+        self.mechanism().name()
+    }
+
+    /// The family that tests `m`, `None` for the paper's own terms (the baseline).
+    pub fn of(m: Mechanism) -> Option<Family> {
+        Family::ALL.into_iter().find(|f| f.mechanism() == m)
     }
 
     /// Position in [`Family::ALL`].
@@ -74,7 +84,7 @@ impl Family {
 
     /// The family of a library term name.
     pub fn from_name(name: &str) -> Option<Family> {
-        Family::ALL.into_iter().find(|f| f.name() == name)
+        Mechanism::from_name(name).and_then(Family::of)
     }
 
     /// The parameter judged in the benchmark and its relative tolerance: 20 % for lags,

@@ -36,6 +36,7 @@ pub mod variance;
 #[cfg(test)]
 mod tests;
 
+use rlg_physics::Mechanism;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -112,8 +113,8 @@ pub struct Figures {
 /// One missing term found.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Finding {
-    /// The physics library's term name.
-    pub mechanism: String,
+    /// The mechanism of the physics library (its term name in JSON).
+    pub mechanism: Mechanism,
     /// Fitted parameters, by the library's names.
     pub parameters: BTreeMap<String, f64>,
     /// 1σ uncertainty of the fitted parameters (same names, same units).
@@ -208,8 +209,8 @@ pub struct Evidence {
 /// One family's best score.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CandidateScore {
-    /// Term name.
-    pub mechanism: String,
+    /// The family's mechanism (its term name in JSON).
+    pub mechanism: Mechanism,
     /// Best ΔBIC over its grid.
     pub delta_bic: f64,
     /// The significance threshold its ΔBIC is compared with (the bootstrap's, one for all
@@ -283,7 +284,7 @@ impl Finding {
     /// The physics-library term this finding names, with its fitted parameters.
     pub fn term(&self) -> Option<rlg_physics::Term> {
         let mut m = toml::Table::new();
-        m.insert("kind".into(), self.mechanism.clone().into());
+        m.insert("kind".into(), self.mechanism.name().into());
         for (k, v) in &self.parameters {
             m.insert(k.clone(), toml::Value::Float(*v));
         }

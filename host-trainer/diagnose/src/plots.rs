@@ -113,7 +113,7 @@ pub fn figures(d: &Diagnosis) -> Vec<(&'static str, Figure)> {
             } else {
                 d.findings
                     .iter()
-                    .map(|f| f.mechanism.as_str())
+                    .map(|f| f.mechanism.name())
                     .collect::<Vec<_>>()
                     .join(" + ")
             }

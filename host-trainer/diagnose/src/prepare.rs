@@ -6,9 +6,10 @@
 use serde::{Deserialize, Serialize};
 
 use super::DiagnoseError;
+use compensator_core::physics::lead;
 use rlg_eval::metrics::block_means;
 use rlg_io::recording::Recording;
-use rlg_physics::{contribution, Role, Term};
+use rlg_physics::{contribution, Mechanism, Role, Term};
 
 /// Length of the averaging blocks, s (the paper's 100 s means).
 pub const BLOCK_S: f64 = 100.0;
@@ -52,9 +53,9 @@ impl PhysicsModel {
         })
     }
 
-    /// Whether the model holds a term of this name.
-    pub fn has(&self, name: &str) -> bool {
-        self.terms.iter().any(|t| t.name() == name)
+    /// Whether the model holds a term of this mechanism.
+    pub fn has(&self, m: Mechanism) -> bool {
+        self.terms.iter().any(|t| t.mechanism() == m)
     }
 }
 
@@ -87,7 +88,7 @@ impl DriveSeries {
             .temp_c
             .iter()
             .zip(&slope)
-            .map(|(t, r)| t + tau_s * r)
+            .map(|(t, r)| lead(*t, tau_s, *r))
             .collect();
         let rate = estimate_rate(&temp, &self.t_s, dt_s)?;
         Ok(DriveSeries {

@@ -45,7 +45,7 @@ pub(crate) fn run(
 
     let families: Vec<Family> = Family::ALL
         .into_iter()
-        .filter(|f| !model.has(f.name()))
+        .filter(|f| !model.has(f.mechanism()))
         .collect();
     let specs: Vec<(Family, Vec<f64>)> = families
         .iter()
@@ -187,7 +187,7 @@ pub(crate) fn run(
             }
         }
         scores.push(CandidateScore {
-            mechanism: f.name().to_string(),
+            mechanism: f.mechanism(),
             delta_bic: s.dbic[i],
             threshold: thr(f),
             p_value: nulls.best.p_value(s.dbic[i]),
@@ -249,7 +249,7 @@ pub(crate) fn run(
             &where_,
         );
         findings.push(Finding {
-            mechanism: f.name().to_string(),
+            mechanism: f.mechanism(),
             parameters,
             uncertainty: unc,
             where_,

@@ -57,7 +57,7 @@ fn injected_sensor_lag_is_found_with_its_tau() {
     let d = run(vec![Term::SensorLag { tau_s: 300.0 }], 12);
     assert_eq!(d.verdict, Verdict::MissingPhysics, "{:#?}", d.evidence);
     let f = &d.findings[0];
-    assert_eq!(f.mechanism, "sensor_lag", "{:#?}", d.evidence);
+    assert_eq!(f.mechanism, Mechanism::SensorLag, "{:#?}", d.evidence);
     let tau = f.parameters["tau_s"];
     assert!((tau / 300.0 - 1.0).abs() < 0.2, "tau {tau}");
 }
@@ -75,7 +75,7 @@ fn injected_hysteresis_is_found() {
     );
     assert_eq!(d.verdict, Verdict::MissingPhysics, "{:#?}", d.evidence);
     let f = &d.findings[0];
-    assert_eq!(f.mechanism, "hysteresis");
+    assert_eq!(f.mechanism, Mechanism::Hysteresis);
     assert!(
         (f.parameters["width_c"] / 8.0 - 1.0).abs() < 0.2,
         "{:?}",
@@ -145,13 +145,13 @@ fn two_hidden_terms_give_two_findings() {
         15,
     );
     assert_eq!(d.verdict, Verdict::MissingPhysics, "{:#?}", d.evidence);
-    let mut found: Vec<&str> = d.findings.iter().map(|f| f.mechanism.as_str()).collect();
+    let mut found: Vec<&str> = d.findings.iter().map(|f| f.mechanism.name()).collect();
     found.sort_unstable();
     assert_eq!(found, ["backscatter", "hysteresis"], "{:#?}", d.findings);
     let p = |m: &str, k: &str| {
         d.findings
             .iter()
-            .find(|f| f.mechanism == m)
+            .find(|f| f.mechanism.name() == m)
             .unwrap()
             .parameters[k]
     };
@@ -181,7 +181,7 @@ fn noise_scale_and_reading_quantum_are_found() {
     let d =
         diagnose(&sim.recording, &PhysicsModel::paper(), &Options::default()).expect("diagnoses");
     assert_eq!(d.verdict, Verdict::MissingPhysics, "{:#?}", d.evidence);
-    let get = |m: &str| d.findings.iter().find(|f| f.mechanism == m);
+    let get = |m: &str| d.findings.iter().find(|f| f.mechanism.name() == m);
     let q = get("temp_quantization").unwrap_or_else(|| panic!("{:#?}", d.findings));
     assert_eq!(q.parameters["step_c"], 0.25);
     let h = get("heteroscedastic").unwrap_or_else(|| panic!("{:#?}", d.findings));
@@ -214,7 +214,7 @@ fn long_gradient_lag_tau_at_high_snr() {
         },
         21,
     );
-    assert_eq!(f.mechanism, "gradient_lag");
+    assert_eq!(f.mechanism, Mechanism::GradientLag);
     let tau = f.parameters["tau_s"];
     assert!((tau / 2400.0 - 1.0).abs() < 0.05, "tau {tau}");
 }
@@ -225,7 +225,7 @@ fn long_gradient_lag_tau_at_high_snr() {
 #[test]
 fn sensor_lag_tau_under_quantisation_at_high_snr() {
     let f = high_snr(Term::SensorLag { tau_s: 400.0 }, 22);
-    assert_eq!(f.mechanism, "sensor_lag");
+    assert_eq!(f.mechanism, Mechanism::SensorLag);
     let tau = f.parameters["tau_s"];
     assert!((tau / 400.0 - 1.0).abs() < 0.05, "tau {tau}");
 }
@@ -242,7 +242,7 @@ fn mode_hop_step_between_grid_points_at_high_snr() {
         },
         23,
     );
-    assert_eq!(f.mechanism, "mode_hop");
+    assert_eq!(f.mechanism, Mechanism::ModeHop);
     let step = f.parameters["step_dph"];
     assert!((step / 0.003 - 1.0).abs() < 0.05, "step {step}");
     assert!(

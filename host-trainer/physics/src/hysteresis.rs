@@ -1,7 +1,10 @@
 //! Path-dependent terms: the play (backlash) operator and a two-threshold relay.
 
+use compensator_core::physics::play;
+
 /// Play operator of width `width_c`: the output follows the input only when it is pushed by
-/// one of the two edges, p = max(T − w/2, min(T + w/2, p_prev)).
+/// one of the two edges, p = max(T − w/2, min(T + w/2, p_prev))
+/// ([`compensator_core::physics::play`], the board's definition).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Play {
     /// Full width of the dead band, °C.
@@ -19,7 +22,7 @@ impl Play {
     /// Advances to `temp_c`; returns (T − p)/(w/2) ∈ [−1, 1] (+1 on a rising branch).
     pub fn step(&mut self, temp_c: f64) -> f64 {
         let half = 0.5 * self.width_c;
-        self.p = (temp_c - half).max((temp_c + half).min(self.p));
+        self.p = play(self.p, temp_c, half);
         if half > 0.0 {
             (temp_c - self.p) / half
         } else {

@@ -7,12 +7,17 @@
 //! operator, relay) run as a [`TermStep`]; [`contribution`] runs one over whole series.
 
 pub mod hysteresis;
-pub mod lag;
+pub mod mechanism;
 
+use compensator_core::physics::decay;
 use serde::{Deserialize, Serialize};
 
 pub use hysteresis::{Play, Relay};
-pub use lag::FirstOrderLag;
+pub use mechanism::{Mechanism, UnknownMechanism};
+
+/// The first-order lag of the board's features, in f64 (one definition, generic over the
+/// float type, in `compensator_core::physics`).
+pub type FirstOrderLag = compensator_core::physics::FirstOrderLag<f64>;
 
 /// Earth rotation rate, °/h (7.292115e-5 rad/s, WGS-84).
 pub const EARTH_RATE_DPH: f64 = 7.292_115e-5 * 180.0 / std::f64::consts::PI * 3600.0;
@@ -175,23 +180,28 @@ pub struct Drive {
 }
 
 impl Term {
+    /// The term's mechanism: its kind without the parameters.
+    pub fn mechanism(&self) -> Mechanism {
+        match self {
+            Term::EarthRate { .. } => Mechanism::EarthRate,
+            Term::StaticPoly { .. } => Mechanism::StaticPoly,
+            Term::RateTerms { .. } => Mechanism::RateTerms,
+            Term::SensorLag { .. } => Mechanism::SensorLag,
+            Term::GradientLag { .. } => Mechanism::GradientLag,
+            Term::Hysteresis { .. } => Mechanism::Hysteresis,
+            Term::Warmup { .. } => Mechanism::Warmup,
+            Term::ModeHop { .. } => Mechanism::ModeHop,
+            Term::Backscatter { .. } => Mechanism::Backscatter,
+            Term::Periodic { .. } => Mechanism::Periodic,
+            Term::Aging { .. } => Mechanism::Aging,
+            Term::Heteroscedastic { .. } => Mechanism::Heteroscedastic,
+            Term::TempQuantization { .. } => Mechanism::TempQuantization,
+        }
+    }
+
     /// Stable name (the `kind` tag).
     pub fn name(&self) -> &'static str {
-        match self {
-            Term::EarthRate { .. } => "earth_rate",
-            Term::StaticPoly { .. } => "static_poly",
-            Term::RateTerms { .. } => "rate_terms",
-            Term::SensorLag { .. } => "sensor_lag",
-            Term::GradientLag { .. } => "gradient_lag",
-            Term::Hysteresis { .. } => "hysteresis",
-            Term::Warmup { .. } => "warmup",
-            Term::ModeHop { .. } => "mode_hop",
-            Term::Backscatter { .. } => "backscatter",
-            Term::Periodic { .. } => "periodic",
-            Term::Aging { .. } => "aging",
-            Term::Heteroscedastic { .. } => "heteroscedastic",
-            Term::TempQuantization { .. } => "temp_quantization",
-        }
+        self.mechanism().name()
     }
 
     /// The term's numeric parameters as (name, value), names exactly as in TOML/JSON (the
@@ -285,7 +295,12 @@ impl Term {
             Term::Backscatter { amplitude_dph, .. } => *amplitude_dph = 1.0,
             Term::Periodic { amplitude_dph, .. } => *amplitude_dph = 1.0,
             Term::Aging { rate_dph_per_day } => *rate_dph_per_day = 1.0,
-            _ => return None,
+            Term::EarthRate { .. }
+            | Term::StaticPoly { .. }
+            | Term::RateTerms { .. }
+            | Term::SensorLag { .. }
+            | Term::Heteroscedastic { .. }
+            | Term::TempQuantization { .. } => return None,
         }
         Some(t)
     }
@@ -295,7 +310,16 @@ impl Term {
         match self {
             Term::SensorLag { .. } | Term::TempQuantization { .. } => Role::Sensor,
             Term::Heteroscedastic { .. } => Role::NoiseScale,
-            _ => Role::Bias,
+            Term::EarthRate { .. }
+            | Term::StaticPoly { .. }
+            | Term::RateTerms { .. }
+            | Term::GradientLag { .. }
+            | Term::Hysteresis { .. }
+            | Term::Warmup { .. }
+            | Term::ModeHop { .. }
+            | Term::Backscatter { .. }
+            | Term::Periodic { .. }
+            | Term::Aging { .. } => Role::Bias,
         }
     }
 
@@ -326,17 +350,23 @@ impl Term {
             Term::Backscatter { period_c, .. } => pos("period_c", *period_c),
             Term::Periodic { period_s, .. } => pos("period_s", *period_s),
             Term::TempQuantization { step_c } => pos("step_c", *step_c),
-            _ => Ok(()),
+            // Any finite value is a meaningful parameter of these (deserialisation has already
+            // refused what is not a number).
+            Term::EarthRate { .. }
+            | Term::RateTerms { .. }
+            | Term::Aging { .. }
+            | Term::Heteroscedastic { .. } => Ok(()),
         }
     }
 }
 
-#[derive(Clone, Debug)]
-enum State {
-    None,
-    Lag(FirstOrderLag),
-    Play(Play),
-    Relay(Relay),
+/// The running state of the stateful terms (lags, play operator, relay); a term leaves the
+/// parts it does not use at rest.
+#[derive(Clone, Copy, Debug)]
+struct State {
+    lag: FirstOrderLag,
+    play: Play,
+    relay: Relay,
 }
 
 /// A term with its running state; step it once per sample, in time order.
@@ -350,18 +380,41 @@ pub struct TermStep {
 impl TermStep {
     /// Starts the term at rest at the first sample `d0` (lags settled, play centred).
     pub fn new(term: &Term, d0: &Drive) -> Self {
+        let rest = State {
+            lag: FirstOrderLag::new(0.0, 0.0),
+            play: Play::new(0.0, d0.temp_c),
+            relay: Relay::new(f64::INFINITY, f64::INFINITY, d0.temp_c),
+        };
         let state = match term {
-            Term::SensorLag { tau_s } => State::Lag(FirstOrderLag::new(*tau_s, d0.temp_c)),
-            Term::GradientLag { tau_s, .. } => {
-                State::Lag(FirstOrderLag::new(*tau_s, d0.dtemp_c_per_s))
-            }
-            Term::Hysteresis { width_c, .. } => State::Play(Play::new(*width_c, d0.temp_c)),
+            Term::SensorLag { tau_s } => State {
+                lag: FirstOrderLag::new(*tau_s, d0.temp_c),
+                ..rest
+            },
+            Term::GradientLag { tau_s, .. } => State {
+                lag: FirstOrderLag::new(*tau_s, d0.dtemp_c_per_s),
+                ..rest
+            },
+            Term::Hysteresis { width_c, .. } => State {
+                play: Play::new(*width_c, d0.temp_c),
+                ..rest
+            },
             Term::ModeHop {
                 temp_c,
                 hysteresis_c,
                 ..
-            } => State::Relay(Relay::new(*temp_c, temp_c - hysteresis_c, d0.temp_c)),
-            _ => State::None,
+            } => State {
+                relay: Relay::new(*temp_c, temp_c - hysteresis_c, d0.temp_c),
+                ..rest
+            },
+            Term::EarthRate { .. }
+            | Term::StaticPoly { .. }
+            | Term::RateTerms { .. }
+            | Term::Warmup { .. }
+            | Term::Backscatter { .. }
+            | Term::Periodic { .. }
+            | Term::Aging { .. }
+            | Term::Heteroscedastic { .. }
+            | Term::TempQuantization { .. } => rest,
         };
         Self {
             term: term.clone(),
@@ -381,73 +434,57 @@ impl TermStep {
         let dt = self.t_prev_s.map_or(0.0, |t| d.t_s - t);
         self.t_prev_s = Some(d.t_s);
         let tau2pi = 2.0 * std::f64::consts::PI;
-        match (&self.term, &mut self.state) {
-            (Term::EarthRate { latitude_deg, axis }, _) => {
+        let st = &mut self.state;
+        match &self.term {
+            Term::EarthRate { latitude_deg, axis } => {
                 let s = EARTH_RATE_DPH * latitude_deg.to_radians().sin();
                 match axis {
                     Axis::Up => s,
                     Axis::Down => -s,
                 }
             }
-            (
-                Term::StaticPoly {
-                    center_c,
-                    scale_c,
-                    coeffs_dph,
-                },
-                _,
-            ) => {
+            Term::StaticPoly {
+                center_c,
+                scale_c,
+                coeffs_dph,
+            } => {
                 let x = (d.temp_c - center_c) / scale_c;
                 coeffs_dph.iter().rev().fold(0.0, |acc, c| acc * x + c)
             }
-            (
-                Term::RateTerms {
-                    linear,
-                    cubic,
-                    temp_linear,
-                },
-                _,
-            ) => {
+            Term::RateTerms {
+                linear,
+                cubic,
+                temp_linear,
+            } => {
                 let r = d.dtemp_c_per_s;
                 linear * r + cubic * r * r * r + temp_linear * d.temp_c * r
             }
-            (Term::SensorLag { .. }, State::Lag(lag)) => lag.step(sensor_in_c, dt),
-            (Term::GradientLag { gain, .. }, State::Lag(lag)) => {
-                gain * lag.step(d.dtemp_c_per_s, dt)
-            }
-            (Term::Hysteresis { height_dph, .. }, State::Play(p)) => height_dph * p.step(d.temp_c),
-            (
-                Term::Warmup {
-                    amplitude_dph,
-                    tau_s,
-                    t_on_s,
-                },
-                _,
-            ) => match d.t_s >= *t_on_s {
-                true => amplitude_dph * (-(d.t_s - t_on_s) / tau_s).exp(),
+            Term::SensorLag { .. } => st.lag.step(sensor_in_c, dt),
+            Term::GradientLag { gain, .. } => gain * st.lag.step(d.dtemp_c_per_s, dt),
+            Term::Hysteresis { height_dph, .. } => height_dph * st.play.step(d.temp_c),
+            Term::Warmup {
+                amplitude_dph,
+                tau_s,
+                t_on_s,
+            } => match d.t_s >= *t_on_s {
+                true => amplitude_dph * decay(d.t_s - t_on_s, *tau_s),
                 false => 0.0,
             },
-            (Term::ModeHop { step_dph, .. }, State::Relay(r)) => match r.step(d.temp_c) {
+            Term::ModeHop { step_dph, .. } => match st.relay.step(d.temp_c) {
                 true => *step_dph,
                 false => 0.0,
             },
-            (
-                Term::Backscatter {
-                    period_c,
-                    amplitude_dph,
-                    phase_rad,
-                },
-                _,
-            ) => amplitude_dph * (tau2pi * d.temp_c / period_c + phase_rad).sin(),
-            (
-                Term::Periodic {
-                    period_s,
-                    amplitude_dph,
-                    phase_rad,
-                    windows_s,
-                },
-                _,
-            ) => {
+            Term::Backscatter {
+                period_c,
+                amplitude_dph,
+                phase_rad,
+            } => amplitude_dph * (tau2pi * d.temp_c / period_c + phase_rad).sin(),
+            Term::Periodic {
+                period_s,
+                amplitude_dph,
+                phase_rad,
+                windows_s,
+            } => {
                 let active =
                     windows_s.is_empty() || windows_s.iter().any(|w| d.t_s >= w[0] && d.t_s < w[1]);
                 if active {
@@ -456,14 +493,12 @@ impl TermStep {
                     0.0
                 }
             }
-            (Term::Aging { rate_dph_per_day }, _) => rate_dph_per_day * d.t_s / 86_400.0,
-            (Term::Heteroscedastic { k, ref_c }, _) => {
+            Term::Aging { rate_dph_per_day } => rate_dph_per_day * d.t_s / 86_400.0,
+            Term::Heteroscedastic { k, ref_c } => {
                 let x = (d.temp_c - ref_c) / 30.0;
                 1.0 + k * x * x
             }
-            (Term::TempQuantization { step_c }, _) => (sensor_in_c / step_c).round() * step_c,
-            // `new` pairs every stateful term with its state; other pairings cannot occur.
-            _ => 0.0,
+            Term::TempQuantization { step_c } => (sensor_in_c / step_c).round() * step_c,
         }
     }
 }

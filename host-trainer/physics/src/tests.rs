@@ -291,3 +291,69 @@ fn parameter_names_are_the_serde_names() {
         }
     }
 }
+
+/// One term of every kind: the serde `kind` tag of each is its [`Mechanism`]'s name, and
+/// together they cover the whole library.
+#[test]
+fn every_term_kind_is_a_mechanism() {
+    let terms = [
+        Term::EarthRate {
+            latitude_deg: 28.2,
+            axis: Axis::Down,
+        },
+        Term::StaticPoly {
+            center_c: 0.0,
+            scale_c: 1.0,
+            coeffs_dph: vec![1.0],
+        },
+        Term::RateTerms {
+            linear: 1.0,
+            cubic: 0.0,
+            temp_linear: 0.0,
+        },
+        Term::SensorLag { tau_s: 60.0 },
+        Term::GradientLag {
+            tau_s: 600.0,
+            gain: 1.0,
+        },
+        Term::Hysteresis {
+            width_c: 2.0,
+            height_dph: 1e-3,
+        },
+        Term::Warmup {
+            amplitude_dph: 1e-3,
+            tau_s: 900.0,
+            t_on_s: 0.0,
+        },
+        Term::ModeHop {
+            temp_c: 30.0,
+            step_dph: 1e-3,
+            hysteresis_c: 1.0,
+        },
+        Term::Backscatter {
+            period_c: 25.0,
+            amplitude_dph: 1e-3,
+            phase_rad: 0.0,
+        },
+        Term::Periodic {
+            period_s: 3600.0,
+            amplitude_dph: 1e-3,
+            phase_rad: 0.0,
+            windows_s: vec![],
+        },
+        Term::Aging {
+            rate_dph_per_day: 1e-3,
+        },
+        Term::Heteroscedastic {
+            k: 0.5,
+            ref_c: 20.0,
+        },
+        Term::TempQuantization { step_c: 0.1 },
+    ];
+    let kinds: Vec<Mechanism> = terms.iter().map(Term::mechanism).collect();
+    assert_eq!(kinds, Mechanism::ALL);
+    for t in &terms {
+        let v = serde_json::to_value(t).unwrap();
+        assert_eq!(v["kind"], t.mechanism().name(), "{t:?}");
+    }
+}
