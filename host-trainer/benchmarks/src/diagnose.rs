@@ -37,6 +37,7 @@ use rlg_diagnose::noise::{block_mean_autocov, GlsWhitener};
 use rlg_diagnose::prepare::{baseline_columns, estimate_rate, prepare, PhysicsModel, Prepared};
 use rlg_diagnose::variance::{heldout_variance, heteroscedastic_detectability, log_scale};
 use rlg_diagnose::{diagnose, heldout_metrics, Diagnosis, Options, Verdict};
+use rlg_eval::paper::{self, eq11};
 use rlg_io::recording::Recording;
 use rlg_physics::{contribution, Axis, Mechanism, Term};
 use rlg_simulate::{
@@ -324,18 +325,18 @@ fn base_scenario(
         profile,
         terms: vec![
             Term::EarthRate {
-                latitude_deg: 28.2,
+                latitude_deg: paper::LATITUDE_DEG,
                 axis: Axis::Down,
             },
             Term::StaticPoly {
                 center_c: 0.0,
                 scale_c: 1.0,
-                coeffs_dph: vec![v(-0.00960), v(7.1445e-4), v(-2.6387e-5), v(2.1772e-7)],
+                coeffs_dph: eq11::STATIC_POLY_DPH.iter().map(|&c| v(c)).collect(),
             },
             Term::RateTerms {
-                linear: v(2.1572),
-                cubic: v(-4.2769e3),
-                temp_linear: v(1.9163e-5),
+                linear: v(eq11::RATE_LINEAR),
+                cubic: v(eq11::RATE_CUBIC),
+                temp_linear: v(eq11::TEMP_RATE),
             },
             Term::TempQuantization {
                 step_c: BASE_QUANTUM_C,

@@ -18,16 +18,4 @@ pub mod report;
 pub mod sparse_eval;
 pub mod static_test;
 
-/// The paper's published figures of merit (Sec. 4 and Table 1), °/h.
-pub mod paper {
-    /// 100 s bias stability of the raw dynamic-test output.
-    pub const RAW_B100_DPH: f64 = 0.0102;
-    /// 100 s bias stability after the stepwise-regression model, Eq. (11).
-    pub const STEPWISE_B100_DPH: f64 = 0.0016;
-    /// 100 s bias stability after the LS-SVM model.
-    pub const LSSVM_B100_DPH: f64 = 0.0011;
-    /// Largest static error of the least-squares quadratic (Table 1: 13.8e-4).
-    pub const STATIC_QUAD_MAX_ERR_DPH: f64 = 13.8e-4;
-    /// Largest static error of the LS-SVM (Table 1: 7.28e-4).
-    pub const STATIC_LSSVM_MAX_ERR_DPH: f64 = 7.28e-4;
-}
+pub use rlg_eval::paper;

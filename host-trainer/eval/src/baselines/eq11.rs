@@ -13,18 +13,20 @@
 //! The constant −0.00960 °/h is the room-temperature calibration term, so B is the bias
 //! deviation relative to the calibrated bias (Earth rate excluded).
 
+use crate::paper::eq11::{RATE_CUBIC, RATE_LINEAR, STATIC_POLY_DPH, TEMP_RATE};
+
 /// Constant term, °/h (room-temperature calibration).
-pub const INTERCEPT_DPH: f64 = -0.00960;
+pub const INTERCEPT_DPH: f64 = STATIC_POLY_DPH[0];
 
 /// The six retained terms of Eq. (11), named as in [`super::stepwise::PAPER_TERMS`], with
 /// their coefficients in °/h per unit of the term (T in °C, dT/dt in °C/s).
 pub const TERMS: [(&str, f64); 6] = [
-    ("T", 7.1445e-4),
-    ("T^2", -2.6387e-5),
-    ("T^3", 2.1772e-7),
-    ("dT/dt", 2.1572),
-    ("(dT/dt)^3", -4.2769e3),
-    ("T*dT/dt", 1.9163e-5),
+    ("T", STATIC_POLY_DPH[1]),
+    ("T^2", STATIC_POLY_DPH[2]),
+    ("T^3", STATIC_POLY_DPH[3]),
+    ("dT/dt", RATE_LINEAR),
+    ("(dT/dt)^3", RATE_CUBIC),
+    ("T*dT/dt", TEMP_RATE),
 ];
 
 /// Eq. (11): bias in °/h at body temperature `temp_c` (°C) and rate `dtdt_c_per_s` (°C/s).

@@ -82,8 +82,11 @@ mod tests {
     /// The paper's own factors (Sec. 4): 0.0102/0.0016 = 6.375 and 0.0102/0.0011 = 9.273.
     #[test]
     fn improvement_factor_reproduces_paper() {
-        assert!((improvement_factor(0.0102, 0.0016).unwrap() - 6.375).abs() < 1e-12);
-        assert!((improvement_factor(0.0102, 0.0011).unwrap() - 9.273).abs() < 5e-4);
+        use crate::paper::{LSSVM_B100_DPH, RAW_B100_DPH, STEPWISE_B100_DPH};
+        assert!(
+            (improvement_factor(RAW_B100_DPH, STEPWISE_B100_DPH).unwrap() - 6.375).abs() < 1e-12
+        );
+        assert!((improvement_factor(RAW_B100_DPH, LSSVM_B100_DPH).unwrap() - 9.273).abs() < 5e-4);
         assert_eq!(improvement_factor(1.0, 0.0), None);
         assert_eq!(improvement_factor(f64::NAN, 1.0), None);
     }
