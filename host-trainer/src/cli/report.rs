@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use indicatif::{ProgressBar, ProgressStyle};
+use rlg_io::progress::progress;
 
 use rlg_eval::metrics::compare::markdown_table;
 use rlg_io::table1;
@@ -33,17 +33,6 @@ pub struct ReportArgs {
     /// Table 1 CSV (default: the copy shipped with the crate).
     #[arg(long)]
     pub table: Option<PathBuf>,
-}
-
-/// A progress bar on stderr for a step of `what`; invisible when stderr is not a terminal.
-pub fn progress(what: &str) -> ProgressBar {
-    let pb = ProgressBar::new(0);
-    if let Ok(style) = ProgressStyle::with_template("{msg:<28} [{bar:30}] {pos}/{len} ({elapsed})")
-    {
-        pb.set_style(style.progress_chars("=> "));
-    }
-    pb.set_message(what.to_string());
-    pb
 }
 
 /// Runs both reproductions, prints the comparison and writes the folder.

@@ -7,8 +7,8 @@
 
 use std::path::PathBuf;
 
-use host_trainer::cli::report::progress;
 use rlg_eval::metrics::compare::markdown_table;
+use rlg_io::progress::progress;
 use rlg_repro::{dynamic, report, static_test};
 
 fn main() -> anyhow::Result<()> {

@@ -25,7 +25,7 @@ use tests::replay::{self, ReplaySample};
 /// The shipped dynamic scenario shortened to two cycles with 1.5 h holds, its sensor lag and
 /// backscatter ripple removed and a hysteresis of 6 °C width and ±0.002 °/h added.
 fn scenario() -> Scenario {
-    let text = include_str!("../../host-trainer/scenarios/yu2011-dynamic.toml");
+    let text = include_str!("../../../host-trainer/scenarios/yu2011-dynamic.toml");
     let mut s: Scenario = toml::from_str(text).expect("scenario parses");
     s.profile = toml::from_str::<toml::Table>(
         r#"p = [{ kind = "repeat", count = 2, segments = [

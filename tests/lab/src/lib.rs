@@ -1,0 +1,1 @@
+//! Cross-crate tests of the lab against the board; the tests are in `tests/`.
