@@ -19,12 +19,13 @@ use rlg_eval::noise::NoiseParams;
 /// quantile of the best ΔBIC over all families and grid points (the look-elsewhere effect
 /// included), and that of the generic-structure ΔBIC.
 ///
-/// Tried and not kept: a threshold per family (each family's null put on a common scale by
-/// its exponential tail, the same overall α), so that a one-parameter aging drift would not
-/// need the evidence of the periodic scan over hundreds of frequencies. On the benchmark's
-/// seed 2 it found 45 % instead of 43 % at detectability 3–5 but raised false alarms from 8 %
-/// to 12 % with the Allan-fitted noise, and with the REML noise fit 27 % vs 30 % and 6 % vs
-/// 4 %: the family-wise share put the false alarms where noise misfit matters most.
+/// One threshold for all families, not one per family (each family's null put on a common
+/// scale by its exponential tail, the same overall α, so that a one-parameter aging drift
+/// would not need the evidence of the periodic scan over hundreds of frequencies): measured on
+/// the benchmark's seed 2, per-family thresholds found 45 % instead of 43 % at detectability
+/// 3–5 but raised false alarms from 8 % to 12 % with the Allan-fitted noise (27 % vs 30 % and
+/// 6 % vs 4 % with the REML fit): the family-wise share puts the false alarms where noise
+/// misfit matters most.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn bootstrap(
     ar: &Whitener,

@@ -248,8 +248,8 @@ impl Family {
                 // The recording starts at power-on with the body at rest (the warm-up term's
                 // assumption too): the lag starts from dT/dt = 0, not from the first sample's
                 // one-sided difference, which already sees the self-heating rise. Started
-                // there, a 2 400 s lag missed the simulator's effect by 40 % (RMS) and its
-                // fitted τ came out 35 % short even with no noise.
+                // there, a 2 400 s lag misses the simulator's effect by 40 % (RMS) and its
+                // fitted τ is 35 % short even with no noise (measured).
                 let mut rate = d.dtemp_c_per_s.clone();
                 if let Some(r0) = rate.first_mut() {
                     *r0 = 0.0;

@@ -12,9 +12,9 @@
 //!   simulator's own noise model ([`fit_gyro_noise`]: angle random walk and a Gauss–Markov
 //!   bank for bias instability, from the Allan variance of the 1 Hz residual) and
 //!   replicates of it are simulated with the simulator's generator
-//!   ([`simulate_block_means`]). An AR(p) bootstrap was tried first: it cannot reproduce the
-//!   bank's slow wander (correlation times up to 10⁴ s) and gave 59 % false alarms on the
-//!   benchmark's no-effect recordings; white noise alone gave none in 8.
+//!   ([`simulate_block_means`]). Not an AR(p) bootstrap: it cannot reproduce the bank's slow
+//!   wander (correlation times up to 10⁴ s) and gives 59 % false alarms on the benchmark's
+//!   no-effect recordings (measured; white noise alone gives none in 8).
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;

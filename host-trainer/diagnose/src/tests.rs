@@ -204,7 +204,7 @@ fn high_snr(extra: Term, seed: u64) -> Finding {
 }
 
 /// A long gradient lag: its state starts at rest at power-on, as the simulator's does (from
-/// the first sample's one-sided dT/dt instead, τ = 2 400 s came out 21 % short here).
+/// the first sample's one-sided dT/dt, τ = 2 400 s comes out 21 % short here).
 #[test]
 fn long_gradient_lag_tau_at_high_snr() {
     let f = high_snr(
