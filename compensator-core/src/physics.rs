@@ -85,11 +85,10 @@ pub fn play<T: Real>(prev: T, x: T, half: T) -> T {
     }
 }
 
-/// State of one first-order lag τ·dy/dt = u − y.
+/// State of one first-order lag τ·dy/dt = u − y (τ is the caller's: the state is all the board
+/// stores per lag).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FirstOrderLag<T> {
-    /// Time constant, s (0: no lag, the output is the input).
-    pub tau_s: T,
     /// Output, in the unit of the input.
     pub y: T,
     /// Previous input (for the first-order hold).
@@ -98,26 +97,22 @@ pub struct FirstOrderLag<T> {
 
 impl<T: Real> FirstOrderLag<T> {
     /// A lag at rest at `y0` (output and input both `y0`).
-    pub fn new(tau_s: T, y0: T) -> Self {
-        Self {
-            tau_s,
-            y: y0,
-            u_prev: y0,
-        }
+    pub fn new(y0: T) -> Self {
+        Self { y: y0, u_prev: y0 }
     }
 
-    /// Advances by `dt_s` with the input moving linearly to `u` (first-order hold); returns
-    /// the new output.
+    /// Advances by `dt_s` with the input moving linearly to `u` (first-order hold), time
+    /// constant `tau_s`; returns the new output.
     ///
     /// With a = e^(−dt/τ): y₁ = a·y₀ + (1 − a)·u₀ + (u₁ − u₀)·(1 − τ·(1 − a)/dt), the exact
     /// solution for a linearly varying input, so a ramp is followed with a lag of exactly
     /// τ·rate. τ ≤ 0 or dt ≤ 0 gives y = u.
-    pub fn step(&mut self, u: T, dt_s: T) -> T {
-        if self.tau_s <= T::ZERO || dt_s <= T::ZERO {
+    pub fn step(&mut self, u: T, dt_s: T, tau_s: T) -> T {
+        if tau_s <= T::ZERO || dt_s <= T::ZERO {
             self.y = u;
         } else {
-            let a = decay(dt_s, self.tau_s);
-            let ramp = T::ONE - self.tau_s * (T::ONE - a) / dt_s;
+            let a = decay(dt_s, tau_s);
+            let ramp = T::ONE - tau_s * (T::ONE - a) / dt_s;
             self.y = a * self.y + (T::ONE - a) * self.u_prev + (u - self.u_prev) * ramp;
         }
         self.u_prev = u;
@@ -202,11 +197,11 @@ mod tests {
         let (temp, rate) = random_input(200_000, 7);
         let x_max = temp.iter().fold(0.0f64, |m, t| m.max(t.abs()));
         let r_max = rate.iter().fold(0.0f64, |m, t| m.max(t.abs()));
-        for tau in [1.0, 30.0, 600.0, 5000.0] {
-            let mut l64 = FirstOrderLag::new(tau, temp[0]);
-            let mut l32 = FirstOrderLag::new(tau as f32, temp[0] as f32);
-            let mut h64 = FirstOrderLag::new(tau, 0.0);
-            let mut h32 = FirstOrderLag::new(tau as f32, 0.0f32);
+        for tau in [1.0f64, 30.0, 600.0, 5000.0] {
+            let mut l64 = FirstOrderLag::new(temp[0]);
+            let mut l32 = FirstOrderLag::new(temp[0] as f32);
+            let mut h64 = FirstOrderLag::new(0.0);
+            let mut h32 = FirstOrderLag::new(0.0f32);
             let (k64, k32) = (decay(1.0, tau), decay(1.0f32, tau as f32));
             let (mut p64, mut p32) = (temp[0], temp[0] as f32);
             let half = 0.5 * tau.sqrt();
@@ -216,7 +211,7 @@ mod tests {
                 p64 = play(p64, f64::from(x32), half);
                 p32 = play(p32, x32, half as f32);
                 let d = [
-                    l64.step(x, 1.0) - f64::from(l32.step(x32, 1.0)),
+                    l64.step(x, 1.0, tau) - f64::from(l32.step(x32, 1.0, tau as f32)),
                     h64.step_held(r, k64) - f64::from(h32.step_held(r32, k32)),
                     lead(x, tau, r) - f64::from(lead(x32, tau as f32, r32)),
                     p64 - f64::from(p32),
@@ -261,11 +256,11 @@ mod tests {
     #[test]
     fn ramp_lags_by_tau_times_rate() {
         let (tau, r, dt): (f64, f64, f64) = (120.0, 0.05, 1.0);
-        let mut lag = FirstOrderLag::new(tau, 0.0);
+        let mut lag = FirstOrderLag::new(0.0);
         let mut u = 0.0;
         for _ in 0..5000 {
             u += r * dt;
-            lag.step(u, dt);
+            lag.step(u, dt, tau);
         }
         assert!((u - lag.y - tau * r).abs() < 1e-9, "{}", u - lag.y);
     }
@@ -274,14 +269,14 @@ mod tests {
     #[test]
     fn step_response_matches_exponential() {
         let tau = 10.0;
-        let mut lag = FirstOrderLag::new(tau, 0.0);
-        lag.step(0.0, 1.0);
+        let mut lag = FirstOrderLag::new(0.0);
+        lag.step(0.0, 1.0, tau);
         // Hold the input at 1 from t = 1 s; the first step sees a linear ramp 0→1.
-        let y1 = lag.step(1.0, 1.0);
+        let y1 = lag.step(1.0, 1.0, tau);
         let expect1 = 1.0 - tau * (1.0 - (-0.1f64).exp());
         assert!((y1 - expect1).abs() < 1e-12);
         for k in 2..50 {
-            let y = lag.step(1.0, 1.0);
+            let y = lag.step(1.0, 1.0, tau);
             let e = 1.0 - (1.0 - expect1) * (-((k - 1) as f64) / tau).exp();
             assert!((y - e).abs() < 1e-12);
         }
@@ -292,7 +287,7 @@ mod tests {
     fn held_step_samples_the_continuous_response() {
         let (tau, s): (f64, f64) = (50.0, 0.02);
         let keep = decay(1.0, tau);
-        let mut lag = FirstOrderLag::new(tau, 0.0);
+        let mut lag = FirstOrderLag::new(0.0);
         for k in 1..400 {
             let y = lag.step_held(s, keep);
             assert!((y - s * (1.0 - (-(k as f64) / tau).exp())).abs() < 1e-15);

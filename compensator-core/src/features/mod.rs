@@ -52,7 +52,7 @@ impl<const D: usize> FeatureBank<D> {
                 // 1 − e^(−dt/τ) is the gain; keep = e^(−dt/τ). τ = 0 (rejected by parse)
                 // would give keep = 0, i.e. no lag, rather than a NaN.
                 keep: decay(dt_s, tau_s as f32),
-                lag: FirstOrderLag::new(tau_s as f32, 0.0),
+                lag: FirstOrderLag::new(0.0),
             },
             Feature::TempPlayC { width_mc } => State::Play {
                 half_c: width_mc as f32 * 0.0005,
@@ -117,7 +117,7 @@ impl<const D: usize> FeatureBank<D> {
         for st in &mut self.states {
             match st {
                 State::None | State::Decay { .. } => {}
-                State::Lag { lag, .. } => *lag = FirstOrderLag::new(lag.tau_s, 0.0),
+                State::Lag { lag, .. } => *lag = FirstOrderLag::new(0.0),
                 State::Play { y, .. } => *y = None,
             }
         }

@@ -381,17 +381,17 @@ impl TermStep {
     /// Starts the term at rest at the first sample `d0` (lags settled, play centred).
     pub fn new(term: &Term, d0: &Drive) -> Self {
         let rest = State {
-            lag: FirstOrderLag::new(0.0, 0.0),
+            lag: FirstOrderLag::new(0.0),
             play: Play::new(0.0, d0.temp_c),
             relay: Relay::new(f64::INFINITY, f64::INFINITY, d0.temp_c),
         };
         let state = match term {
-            Term::SensorLag { tau_s } => State {
-                lag: FirstOrderLag::new(*tau_s, d0.temp_c),
+            Term::SensorLag { .. } => State {
+                lag: FirstOrderLag::new(d0.temp_c),
                 ..rest
             },
-            Term::GradientLag { tau_s, .. } => State {
-                lag: FirstOrderLag::new(*tau_s, d0.dtemp_c_per_s),
+            Term::GradientLag { .. } => State {
+                lag: FirstOrderLag::new(d0.dtemp_c_per_s),
                 ..rest
             },
             Term::Hysteresis { width_c, .. } => State {
@@ -459,8 +459,8 @@ impl TermStep {
                 let r = d.dtemp_c_per_s;
                 linear * r + cubic * r * r * r + temp_linear * d.temp_c * r
             }
-            Term::SensorLag { .. } => st.lag.step(sensor_in_c, dt),
-            Term::GradientLag { gain, .. } => gain * st.lag.step(d.dtemp_c_per_s, dt),
+            Term::SensorLag { tau_s } => st.lag.step(sensor_in_c, dt, *tau_s),
+            Term::GradientLag { tau_s, gain } => gain * st.lag.step(d.dtemp_c_per_s, dt, *tau_s),
             Term::Hysteresis { height_dph, .. } => height_dph * st.play.step(d.temp_c),
             Term::Warmup {
                 amplitude_dph,

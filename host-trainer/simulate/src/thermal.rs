@@ -72,8 +72,8 @@ impl Thermal {
     pub fn new(params: &ThermalParams, start_c: f64) -> Self {
         Self {
             params: params.clone(),
-            air: FirstOrderLag::new(params.air_tau_s, start_c),
-            body: FirstOrderLag::new(params.body_tau_s, start_c),
+            air: FirstOrderLag::new(start_c),
+            body: FirstOrderLag::new(start_c),
         }
     }
 
@@ -100,14 +100,14 @@ impl Thermal {
 
     /// Advances by `dt_s` to setpoint `setpoint_c`, the gyro powered when `on`.
     pub fn step(&mut self, setpoint_c: f64, on: bool, dt_s: f64) -> ThermalSample {
-        let air = self.air.step(setpoint_c, dt_s);
+        let air = self.air.step(setpoint_c, dt_s, self.params.air_tau_s);
         let heat = if on {
             self.params.self_heating_at(air)
         } else {
             0.0
         };
         let u = air + heat;
-        let body = self.body.step(u, dt_s);
+        let body = self.body.step(u, dt_s, self.params.body_tau_s);
         let d = if self.params.body_tau_s > 0.0 {
             (u - body) / self.params.body_tau_s
         } else {
