@@ -146,52 +146,55 @@ pub fn feature_for(mechanism: Mechanism, param: impl Fn(&str) -> Option<f64>) ->
         feature,
         reason: reason.to_string(),
     };
-    match mechanism {
-        Mechanism::SensorLag => match param("tau_s").and_then(unit) {
-            Some(tau_s) => s(
-                Some(Feature::TempLeadC { tau_s }),
-                "the body leads the late sensor reading by τ·dT/dt",
-            ),
-            None => s(None, "sensor_lag without a usable tau_s"),
-        },
-        Mechanism::GradientLag => match param("tau_s").and_then(unit) {
-            Some(tau_s) => s(
-                Some(Feature::TempGradLagCPerS { tau_s }),
-                "the bias follows the gradient lagged by τ, a history [T, dT/dt] does not hold",
-            ),
-            None => s(None, "gradient_lag without a usable tau_s"),
-        },
-        Mechanism::Hysteresis => match param("width_c").and_then(|w| unit(1000.0 * w)) {
-            Some(width_mc) => s(
-                Some(Feature::TempPlayC { width_mc }),
-                "the heating or cooling branch persists through holds, where dT/dt is 0",
-            ),
-            None => s(None, "hysteresis without a usable width_c"),
-        },
-        Mechanism::Warmup => match param("tau_s").and_then(unit) {
-            Some(tau_s) => s(
-                Some(Feature::WarmupDecay { tau_s }),
-                "the transient decays as e^(−t/τ) from power-on",
-            ),
-            None => s(None, "warmup without a usable tau_s"),
-        },
-        Mechanism::Backscatter | Mechanism::ModeHop => s(
-            None,
+    // Each mechanism is either carried by a recursive board feature (the parameter it takes,
+    // that parameter's scale to the feature's integer unit, the feature, why it is needed) or
+    // not (why not).
+    type Carrier = (&'static str, f64, fn(u32) -> Feature, &'static str);
+    let carrier: Result<Carrier, &str> = match mechanism {
+        Mechanism::SensorLag => Ok((
+            "tau_s",
+            1.0,
+            |tau_s| Feature::TempLeadC { tau_s },
+            "the body leads the late sensor reading by τ·dT/dt",
+        )),
+        Mechanism::GradientLag => Ok((
+            "tau_s",
+            1.0,
+            |tau_s| Feature::TempGradLagCPerS { tau_s },
+            "the bias follows the gradient lagged by τ, a history [T, dT/dt] does not hold",
+        )),
+        Mechanism::Hysteresis => Ok((
+            "width_c",
+            1000.0,
+            |width_mc| Feature::TempPlayC { width_mc },
+            "the heating or cooling branch persists through holds, where dT/dt is 0",
+        )),
+        Mechanism::Warmup => Ok((
+            "tau_s",
+            1.0,
+            |tau_s| Feature::WarmupDecay { tau_s },
+            "the transient decays as e^(−t/τ) from power-on",
+        )),
+        Mechanism::Backscatter | Mechanism::ModeHop => Err(
             "a function of T, already an input; cross-validation chooses the kernel width it needs",
         ),
-        Mechanism::Periodic | Mechanism::Aging => s(
-            None,
+        Mechanism::Periodic | Mechanism::Aging => Err(
             "runs in absolute time, which the board's inputs do not carry and which would not repeat after calibration",
         ),
-        Mechanism::Heteroscedastic => s(None, "changes the noise, not the bias: nothing to compensate"),
-        Mechanism::TempQuantization => s(
-            None,
+        Mechanism::Heteroscedastic => Err("changes the noise, not the bias: nothing to compensate"),
+        Mechanism::TempQuantization => Err(
             "the board reads the same rounded temperature: de-quantise the reading before the dT/dt estimator (not a bias feature)",
         ),
-        Mechanism::EarthRate | Mechanism::StaticPoly | Mechanism::RateTerms => s(
-            None,
-            "part of the paper's model, which [T, dT/dt] already carries",
-        ),
+        Mechanism::EarthRate | Mechanism::StaticPoly | Mechanism::RateTerms => {
+            Err("part of the paper's model, which [T, dT/dt] already carries")
+        }
+    };
+    match carrier {
+        Ok((name, scale, feature, why)) => match param(name).and_then(|v| unit(scale * v)) {
+            Some(u) => s(Some(feature(u)), why),
+            None => s(None, &format!("{mechanism} without a usable {name}")),
+        },
+        Err(why) => s(None, why),
     }
 }
 

@@ -12,8 +12,7 @@ use rlg_simulate::{simulate, Scenario};
 const ONE_DAY_BUDGET_S: f64 = 30.0;
 
 fn one_day() -> Scenario {
-    let mut s: Scenario = toml::from_str(include_str!("../../scenarios/yu2011-dynamic.toml"))
-        .expect("scenario parses");
+    let mut s = rlg_simulate::shipped::dynamic().expect("scenario is valid");
     s.duration_s = Some(86_400.0);
     s.terms.push(Term::Hysteresis {
         width_c: 6.0,

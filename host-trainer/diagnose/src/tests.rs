@@ -4,26 +4,10 @@ use super::*;
 use rlg_physics::Term;
 use rlg_simulate::{simulate, Scenario};
 
-/// The dynamic scenario shortened to two 1 °C/min cycles of 10 … 65 °C with 1.5 h holds
-/// (≈ 9.7 h), its 5 s sensor lag and its backscatter ripple removed (so that the paper's model
-/// is the whole truth), with `extra` terms added.
+/// The shortened dynamic scenario ([`rlg_simulate::shipped::dynamic_two_cycles`]) with
+/// `extra` terms and its noise scaled by `noise_scale`.
 fn scenario(extra: Vec<Term>, noise_scale: f64) -> Scenario {
-    let text = include_str!("../../scenarios/yu2011-dynamic.toml");
-    let mut s: Scenario = toml::from_str(text).expect("scenario parses");
-    s.profile = toml::from_str::<toml::Table>(
-        r#"p = [{ kind = "repeat", count = 2, segments = [
-            { kind = "hold", duration_s = 5400.0 },
-            { kind = "ramp", to_c = 65.0, rate_c_per_min = 1.0 },
-            { kind = "hold", duration_s = 5400.0 },
-            { kind = "ramp", to_c = 10.0, rate_c_per_min = 1.0 } ] }]"#,
-    )
-    .ok()
-    .and_then(|t| t.get("p").cloned())
-    .and_then(|v| v.try_into().ok())
-    .expect("profile parses");
-    s.terms
-        .retain(|t| !matches!(t, Term::SensorLag { .. } | Term::Backscatter { .. }));
-    s.terms.extend(extra);
+    let mut s = rlg_simulate::shipped::dynamic_two_cycles(extra).expect("scenario is valid");
     s.noise.arw_dph_rt_h *= noise_scale;
     s.noise.bias_instability_dph *= noise_scale;
     s.noise.rrw_dph_per_rt_h *= noise_scale;

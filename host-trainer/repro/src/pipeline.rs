@@ -10,7 +10,7 @@ use indicatif::ProgressBar;
 
 use rlg_io::cycles::cycle_spans;
 use rlg_io::recording::Recording;
-use rlg_simulate::{simulate, Scenario};
+use rlg_simulate::simulate;
 use rlg_train::dataset::{self, Dataset, RecordingSelection};
 use rlg_train::lssvm::sparse::{train_reduced, Reduction};
 use rlg_train::lssvm::tune::{tune, Grid, Tuned};
@@ -18,10 +18,9 @@ use rlg_train::lssvm::Lssvm;
 use rlg_train::model::{ModelFile, Provenance};
 pub use rlg_train::protocol::{CV, RATE_TAU_S, SUPPORT_VECTORS, TRAIN_BLOCK};
 
-/// The shipped dynamic scenario (TOML text).
-pub const DYNAMIC_SCENARIO_TOML: &str = include_str!("../../scenarios/yu2011-dynamic.toml");
-/// Where that text lives in the repository (provenance).
-pub const DYNAMIC_SCENARIO_PATH: &str = "host-trainer/scenarios/yu2011-dynamic.toml";
+pub use rlg_simulate::shipped::{
+    DYNAMIC_PATH as DYNAMIC_SCENARIO_PATH, DYNAMIC_TOML as DYNAMIC_SCENARIO_TOML,
+};
 /// Seed of the reference simulation.
 pub const DYNAMIC_SEED: u64 = 2011;
 /// Kernel width σ (standardised units) of the default model: the choice of [`tune_first_cycle`]
@@ -131,7 +130,7 @@ pub fn dynamic_run() -> anyhow::Result<DynamicRun> {
 
 /// Simulates the shipped dynamic scenario with `seed`.
 pub fn dynamic_run_seeded(seed: u64) -> anyhow::Result<DynamicRun> {
-    let scenario = Scenario::from_toml_str(DYNAMIC_SCENARIO_TOML, DYNAMIC_SCENARIO_PATH)?;
+    let scenario = rlg_simulate::shipped::dynamic()?;
     let sim = simulate(&scenario, seed)?;
     let (recording, true_bias_dph) = (sim.recording, sim.truth.bias_dph);
     let cycles = cycle_spans(&recording.time_s, &recording.temp_c);

@@ -6,6 +6,7 @@
 
 pub mod figure;
 pub mod scenario;
+pub mod shipped;
 pub mod thermal;
 
 use std::path::{Path, PathBuf};

@@ -77,6 +77,16 @@ impl Thermal {
         }
     }
 
+    /// dT_c/dt of the body at `body_c` driven by `input_c` (air plus self-heating), °C/s:
+    /// (input − T_c)/τ, exact for the lag; 0 without one.
+    fn body_rate(&self, input_c: f64, body_c: f64) -> f64 {
+        if self.params.body_tau_s > 0.0 {
+            (input_c - body_c) / self.params.body_tau_s
+        } else {
+            0.0
+        }
+    }
+
     /// The present state without advancing, the gyro powered when `on`.
     pub fn current(&self, on: bool) -> ThermalSample {
         let air = self.air.y;
@@ -86,11 +96,7 @@ impl Thermal {
             0.0
         };
         let body = self.body.y;
-        let d = if self.params.body_tau_s > 0.0 {
-            (air + heat - body) / self.params.body_tau_s
-        } else {
-            0.0
-        };
+        let d = self.body_rate(air + heat, body);
         ThermalSample {
             air_c: air,
             body_c: body,
@@ -108,11 +114,7 @@ impl Thermal {
         };
         let u = air + heat;
         let body = self.body.step(u, dt_s, self.params.body_tau_s);
-        let d = if self.params.body_tau_s > 0.0 {
-            (u - body) / self.params.body_tau_s
-        } else {
-            0.0
-        };
+        let d = self.body_rate(u, body);
         ThermalSample {
             air_c: air,
             body_c: body,

@@ -22,29 +22,13 @@ use tests::e2e::compare_with_host;
 use tests::firmware;
 use tests::replay::{self, ReplaySample};
 
-/// The shipped dynamic scenario shortened to two cycles with 1.5 h holds, its sensor lag and
-/// backscatter ripple removed and a hysteresis of 6 °C width and ±0.002 °/h added.
+/// The shortened dynamic scenario with a hysteresis of 6 °C width and ±0.002 °/h added.
 fn scenario() -> Scenario {
-    let text = include_str!("../../../host-trainer/scenarios/yu2011-dynamic.toml");
-    let mut s: Scenario = toml::from_str(text).expect("scenario parses");
-    s.profile = toml::from_str::<toml::Table>(
-        r#"p = [{ kind = "repeat", count = 2, segments = [
-            { kind = "hold", duration_s = 5400.0 },
-            { kind = "ramp", to_c = 65.0, rate_c_per_min = 1.0 },
-            { kind = "hold", duration_s = 5400.0 },
-            { kind = "ramp", to_c = 10.0, rate_c_per_min = 1.0 } ] }]"#,
-    )
-    .ok()
-    .and_then(|t| t.get("p").cloned())
-    .and_then(|v| v.try_into().ok())
-    .expect("profile parses");
-    s.terms
-        .retain(|t| !matches!(t, Term::SensorLag { .. } | Term::Backscatter { .. }));
-    s.terms.push(Term::Hysteresis {
+    rlg_simulate::shipped::dynamic_two_cycles(vec![Term::Hysteresis {
         width_c: 6.0,
         height_dph: 0.002,
-    });
-    s
+    }])
+    .expect("scenario is valid")
 }
 
 #[test]

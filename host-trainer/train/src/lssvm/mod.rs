@@ -127,6 +127,24 @@ pub struct Lssvm {
     pub linear_dph: Vec<f64>,
 }
 
+/// The scaling fitted on `x` (columns named by `features`) and `x` standardised by it, after
+/// checking that there is one target per row.
+pub(crate) fn standardised(
+    features: &[String],
+    x: &[Vec<f64>],
+    y_dph: &[f64],
+) -> Result<(Scaling, Vec<Vec<f64>>), LssvmError> {
+    if x.len() != y_dph.len() {
+        return Err(LssvmError::Length {
+            inputs: x.len(),
+            targets: y_dph.len(),
+        });
+    }
+    let scaling = Scaling::fit(features, x)?;
+    let z = x.iter().map(|r| scaling.apply(r)).collect();
+    Ok((scaling, z))
+}
+
 impl Lssvm {
     /// Trains on raw inputs `x` (one row per sample, columns named by `features`) and
     /// targets `y_dph` (°/h).
@@ -137,14 +155,7 @@ impl Lssvm {
         sigma: f64,
         c: f64,
     ) -> Result<Lssvm, LssvmError> {
-        if x.len() != y_dph.len() {
-            return Err(LssvmError::Length {
-                inputs: x.len(),
-                targets: y_dph.len(),
-            });
-        }
-        let scaling = Scaling::fit(features, x)?;
-        let z: Vec<Vec<f64>> = x.iter().map(|r| scaling.apply(r)).collect();
+        let (scaling, z) = standardised(features, x, y_dph)?;
         let sol = solve(&z, y_dph, sigma, c)?;
         Ok(Lssvm {
             features: features.to_vec(),
@@ -295,10 +306,9 @@ pub fn expand_linear(linear: &[bool], beta: &[f64]) -> Vec<f64> {
 
 #[cfg(test)]
 pub(crate) mod test_data {
-    /// Deterministic scattered 2-D inputs (a quasi-random sequence) and a smooth target with
-    /// a little "noise", shared by the solver tests.
-    pub fn scattered(n: usize) -> (Vec<Vec<f64>>, Vec<f64>) {
-        let z: Vec<Vec<f64>> = (0..n)
+    /// Deterministic scattered 2-D inputs in [−1.7, 1.7]² (a quasi-random sequence).
+    pub fn points(n: usize) -> Vec<Vec<f64>> {
+        (0..n)
             .map(|i| {
                 let t = i as f64;
                 vec![
@@ -306,7 +316,12 @@ pub(crate) mod test_data {
                     (t * 0.414_213_562_4).fract() * 3.4 - 1.7,
                 ]
             })
-            .collect();
+            .collect()
+    }
+
+    /// [`points`] and a smooth target with a little "noise", shared by the solver tests.
+    pub fn scattered(n: usize) -> (Vec<Vec<f64>>, Vec<f64>) {
+        let z = points(n);
         let y = z
             .iter()
             .enumerate()

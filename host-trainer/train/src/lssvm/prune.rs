@@ -94,15 +94,7 @@ mod tests {
     use crate::lssvm::solve::solve_dense_reference;
 
     fn data(n: usize) -> (Vec<Vec<f64>>, Vec<f64>) {
-        let z: Vec<Vec<f64>> = (0..n)
-            .map(|i| {
-                let t = i as f64;
-                vec![
-                    (t * 0.618_033_988_7).fract() * 3.4 - 1.7,
-                    (t * 0.414_213_562_4).fract() * 3.4 - 1.7,
-                ]
-            })
-            .collect();
+        let z = crate::lssvm::test_data::points(n);
         let y = z
             .iter()
             .enumerate()

@@ -6,7 +6,7 @@ use super::fixed_size::{
     self, select_active_set, solve_fixed_size, solve_on_active, FixedSizeOptions, Rows,
 };
 use super::prune::prune;
-use super::{Lssvm, LssvmError, Scaling};
+use super::{Lssvm, LssvmError};
 
 /// Default support-vector budget: the board table's default capacity.
 pub const DEFAULT_BUDGET: usize = 64;
@@ -80,14 +80,7 @@ pub fn train_reduced(
     budget: usize,
     method: Reduction,
 ) -> Result<Lssvm, LssvmError> {
-    if x.len() != y_dph.len() {
-        return Err(LssvmError::Length {
-            inputs: x.len(),
-            targets: y_dph.len(),
-        });
-    }
-    let scaling = Scaling::fit(features, x)?;
-    let z: Vec<Vec<f64>> = x.iter().map(|r| scaling.apply(r)).collect();
+    let (scaling, z) = super::standardised(features, x, y_dph)?;
     let (support, alpha_dph, bias_dph) = match method {
         Reduction::FixedSize { trials, seed } => {
             let rows = Rows::from_rows(&z);
