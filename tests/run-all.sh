@@ -20,7 +20,10 @@ cargo build -p compensator-core --target thumbv7em-none-eabihf
 cargo build -p compensator-core --target thumbv7m-none-eabi
 
 step "clippy, firmware for the board"
-cargo clippy -p firmware --target thumbv7em-none-eabihf --profile firmware -- -D warnings
+cargo clippy -p firmware --target thumbv7em-none-eabihf --profile firmware --features no-panic-proof -- -D warnings
+
+step "the firmware as a firmware engineer builds it first (plain release)"
+cargo build -p firmware --release --target thumbv7em-none-eabihf
 
 step "tests (host crates, firmware logic on the host, firmware in QEMU)"
 cargo test --workspace

@@ -27,6 +27,25 @@ use rlg_train::export::{table_item, F32Model};
 
 use crate::firmware::{self, log_field, FirmwareError, QemuRun};
 
+/// Board budgets at 64 support vectors and two inputs, enforced by `tests/tests/board_budgets.rs`
+/// and reported by `cargo run --release -p tests --bin budgets` (which exits non-zero when one
+/// is not met). Measured values are in the test's output and the README.
+pub mod limits {
+    /// Support vectors the budgets are stated for.
+    pub const SUPPORT_VECTORS: usize = 64;
+    /// Instructions of the whole 1 Hz step (both reads and `Compensator::update`, the board's
+    /// fast exp) per support vector, f32 on the Cortex-M4F.
+    pub const F32_INSTR_PER_SV: f64 = 50.0;
+    /// Instructions of `FixedModel::predict` per support vector on the Cortex-M4F.
+    pub const FIXED_INSTR_PER_SV: f64 = 45.0;
+    /// Flash of the image without the replay data compiled into it, bytes.
+    pub const FLASH_BYTES: u64 = 32 * 1024;
+    /// Static RAM (.data + .bss), bytes.
+    pub const STATIC_RAM_BYTES: u64 = 4 * 1024;
+    /// Measured stack high-water mark, bytes.
+    pub const STACK_BYTES: u64 = 8 * 1024;
+}
+
 /// How long one budget run may take in QEMU.
 pub const QEMU_TIMEOUT: Duration = Duration::from_secs(120);
 

@@ -8,7 +8,7 @@
 //! inputs with the same model table file.
 //!
 //! Needs `qemu-system-arm` and the thumb target (`bash tests/setup.sh`). Without QEMU the test
-//! is skipped with a message, except under CI (`CI` set), where that is a failure.
+//! fails, unless `RLG_ALLOW_MISSING_TOOLS` is set (then it is skipped with a message).
 
 use std::time::{Duration, Instant};
 
@@ -256,6 +256,13 @@ fn qemu_replay_matches_host_bit_for_bit() {
         field("min") * per_tick,
         field("max"),
         field("max") * per_tick
+    );
+    // The update cost is bounded by the board budget per support vector.
+    let per_sv =
+        field("total") / field("calls") * per_tick / model_table::MODEL.support.len() as f64;
+    assert!(
+        per_sv <= tests::budgets::limits::F32_INSTR_PER_SV,
+        "{per_sv:.1} instructions per support vector: {cost}"
     );
     let start = run
         .log

@@ -9,7 +9,8 @@
 //! the proof. (The QEMU image's logging transport, defmt over semihosting, keeps its own
 //! reentrancy panics; it is not on this path and not linked here.)
 //!
-//! `cargo build -p firmware --profile firmware --target thumbv7em-none-eabihf --bin no-panic`
+//! `cargo build -p firmware --profile firmware --target thumbv7em-none-eabihf --bin no-panic
+//! --features no-panic-proof`
 //! (run by `tests/tests/no_panic.rs`, which also builds the negative control,
 //! `RLG_NO_PANIC_CONTROL=1`, and checks that its link fails).
 #![cfg_attr(target_os = "none", no_std)]

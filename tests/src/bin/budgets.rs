@@ -12,10 +12,11 @@ use anyhow::{bail, Context};
 use tests::budgets::{self, ImageOptions};
 use tests::firmware;
 
-/// Targets at 64 support vectors and two inputs.
-const MAX_INSTR_PER_SV: f64 = 50.0;
-const MAX_FLASH_BYTES: u64 = 32 * 1024;
-const MAX_RAM_BYTES: u64 = 4 * 1024;
+use budgets::limits::{
+    F32_INSTR_PER_SV as MAX_INSTR_PER_SV, FIXED_INSTR_PER_SV as MAX_FIXED_INSTR_PER_SV,
+    FLASH_BYTES as MAX_FLASH_BYTES, STACK_BYTES as MAX_STACK_BYTES,
+    STATIC_RAM_BYTES as MAX_RAM_BYTES,
+};
 
 fn main() -> anyhow::Result<()> {
     if !firmware::qemu_available() {
@@ -222,11 +223,11 @@ fn main() -> anyhow::Result<()> {
         verdict(libm_step / 64.0 <= MAX_INSTR_PER_SV)
     );
     println!(
-        "  instructions per SV ≤ {MAX_INSTR_PER_SV}, fixed point (predict alone): M4F {:.1} → {}, M3 {:.1} → {}",
+        "  instructions per SV ≤ {MAX_FIXED_INSTR_PER_SV}, fixed point (predict alone): M4F {:.1} → {}, M3 {:.1} → {}",
         fixed_64[0],
-        verdict(fixed_64[0] <= MAX_INSTR_PER_SV),
+        verdict(fixed_64[0] <= MAX_FIXED_INSTR_PER_SV),
         fixed_64[1],
-        verdict(fixed_64[1] <= MAX_INSTR_PER_SV)
+        verdict(fixed_64[1] <= MAX_FIXED_INSTR_PER_SV)
     );
     let flash = s64.flash - replay_bytes;
     println!(
@@ -239,6 +240,22 @@ fn main() -> anyhow::Result<()> {
         verdict(s64.static_ram <= MAX_RAM_BYTES),
         c64.stack_bytes
     );
+    println!(
+        "  stack high-water ≤ {MAX_STACK_BYTES} B: {} B → {}",
+        c64.stack_bytes,
+        verdict(c64.stack_bytes <= MAX_STACK_BYTES)
+    );
     println!("  no heap: {}", verdict(!s64.has_heap));
+    let met = [
+        per_sv <= MAX_INSTR_PER_SV,
+        fixed_64[0] <= MAX_FIXED_INSTR_PER_SV && fixed_64[1] <= MAX_FIXED_INSTR_PER_SV,
+        flash <= MAX_FLASH_BYTES,
+        s64.static_ram <= MAX_RAM_BYTES,
+        c64.stack_bytes <= MAX_STACK_BYTES,
+        !s64.has_heap,
+    ];
+    if met.contains(&false) {
+        bail!("a board budget is NOT met (above)");
+    }
     Ok(())
 }
