@@ -102,6 +102,21 @@ impl Family {
         }
     }
 
+    /// Whether the family's effect is a function of the temperature history (it recurs in
+    /// every temperature cycle), as opposed to time alone (warm-up, aging, periodic) or the
+    /// noise (heteroscedastic, tested on the samples' variance).
+    pub fn is_thermal(self) -> bool {
+        matches!(
+            self,
+            Family::SensorLag
+                | Family::GradientLag
+                | Family::Hysteresis
+                | Family::ModeHop
+                | Family::Backscatter
+                | Family::TempQuantization
+        )
+    }
+
     /// Number of free parameters counted by the information criterion (linear amplitudes
     /// plus scanned non-linear parameters).
     pub fn n_params(self) -> usize {

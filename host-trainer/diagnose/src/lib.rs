@@ -4,9 +4,10 @@
 //! Pipeline ([`diagnose`]):
 //! 1. Fit the model's linear parameters by least squares on 100 s means, driven by the
 //!    recorded temperature and its dT/dt (centred difference, see [`prepare`]).
-//! 2. Fit the gyro noise to the baseline residual (angle random walk from its Allan variance,
-//!    bias instability by REML on the 100 s means) and whiten the means by the exact
-//!    Cholesky factor of that model's block-mean covariance ([`noise`]).
+//! 2. Fit the gyro noise to the baseline residual's 100 s means by REML (white level and
+//!    bias instability; rate random walk added when that fails the residual's own Allan
+//!    check, [`reml`]) and whiten the means by the exact Cholesky factor of that model's
+//!    block-mean covariance ([`noise`]).
 //! 3. For every library term the model lacks ([`candidates::Family`]), scan its non-linear
 //!    parameter on a grid, fit its amplitude jointly with the baseline, and score it by
 //!    ΔBIC on the whitened 100 s means.
@@ -15,6 +16,10 @@
 //!    coloured noise and for the look-elsewhere effect of the scans); a candidate counts when
 //!    its ΔBIC is below the null's 1 − α quantile AND it lowers the held-out (4-fold,
 //!    interleaved 1 h chunks) residual of the 100 s means.
+//!    Where the noise model fails its check, a finding also needs evidence that does not
+//!    rest on it (each temperature cycle predicted from the others; a slow function of time
+//!    alone is reported as inseparable slow drift), and a finding must leave no generic
+//!    structure behind, else the verdict is `unexplained_structure`.
 //! 5. Verdict, located spans, before/after held-out figures and a plain-words explanation.
 //!
 //! The diagnosis reads only the recording and the model, never a truth sidecar.
@@ -28,6 +33,7 @@ pub mod noise;
 pub mod plots;
 pub mod prepare;
 mod refine;
+pub mod reml;
 mod scan;
 mod score;
 mod search;
@@ -189,9 +195,23 @@ pub struct Evidence {
     /// noise) or "ar" (the AR(p) fit; recordings longer than the GLS limit).
     #[serde(default)]
     pub whitening: String,
-    /// Gyro noise fitted to the 1 Hz residual for the bootstrap: angle random walk °/√h,
+    /// Gyro noise fitted to the baseline residual's 100 s means (REML, `reml.rs`) for the
+    /// whitening and the bootstrap: angle random walk °/√h (the white level of the means),
     /// bias instability °/h, rate random walk °/h/√h.
     pub noise_fit: [f64; 3],
+    /// That noise model against the residual's own Allan deviation (None: too few blocks).
+    #[serde(default)]
+    pub noise_check: Option<reml::AllanCheck>,
+    /// p-value of the verdict: the smallest false-alarm probability α at which it would
+    /// not be `consistent` (the smaller of the generic structure test's p-value and those of
+    /// the significant candidates that count; a candidate not separable from slow noise does
+    /// not). On recordings with nothing missing the share with `p_value` ≤ α is the
+    /// false-alarm rate at α.
+    #[serde(default = "one")]
+    pub p_value: f64,
+    /// What the diagnosis could not test or assumed, in plain words.
+    #[serde(default)]
+    pub notes: Vec<String>,
     /// Bootstrap threshold on the best candidate's ΔBIC.
     pub delta_bic_threshold: f64,
     /// Bootstrap threshold on the generic-structure ΔBIC.
@@ -229,6 +249,12 @@ pub struct CandidateScore {
     pub p_value_alone: f64,
     /// Held-out gain, (°/h)² (evaluated only for significant candidates, else 0).
     pub heldout_gain: f64,
+    /// Leave-one-cycle-out gain, (°/h)²: the reduction of the held-out sum of squares of the
+    /// 100 s means when each temperature cycle is predicted from the others. Evaluated for
+    /// significant families driven by the temperature history on records of two or more
+    /// cycles (else None); such a finding needs it positive.
+    #[serde(default)]
+    pub cycle_gain: Option<f64>,
 }
 
 /// Diagnoses `rec` against `model`.
@@ -242,6 +268,11 @@ pub fn diagnose(
     // Further findings: the term found is added to the model (its amplitude refitted with
     // the baseline, its non-linear parameter kept) and the search runs again on what is
     // left, with its own bootstrap threshold, until nothing more is significant.
+    // A finding must account for the structure: when, with every finding added, the
+    // generic test (time chunks, temperature bands, dT/dt bands) still finds structure that
+    // no further library term explains, the verdict is `unexplained_structure`, the findings
+    // kept as the part they explain. A bias step at an arbitrary time or a term in (dT/dt)²
+    // is otherwise named as whichever library term takes the largest share of it.
     let mut current = model.clone();
     while d.verdict == Verdict::MissingPhysics && d.findings.len() < MAX_FINDINGS {
         let Some(term) = d.findings.last().and_then(Finding::term) else {
@@ -249,8 +280,19 @@ pub fn diagnose(
         };
         current.terms.push(term);
         let next = search::run(&prep, &current, opts)?;
+        let structure_p = next.evidence.structure_p_value;
         match (next.verdict, next.findings.into_iter().next()) {
             (Verdict::MissingPhysics, Some(f)) => d.findings.push(f),
+            (Verdict::UnexplainedStructure, _) if structure_p <= opts.alpha => {
+                let names: Vec<&str> = d.findings.iter().map(|f| f.mechanism.name()).collect();
+                d.evidence.notes.push(format!(
+                    "with {} added the residual still has structure no library term explains \
+                     (generic test p = {structure_p:.3}): the finding explains part of it",
+                    names.join(" and ")
+                ));
+                d.verdict = Verdict::UnexplainedStructure;
+                break;
+            }
             _ => break,
         }
     }
@@ -275,6 +317,10 @@ fn block_residual(prep: &Prepared, model: &PhysicsModel) -> Result<Vec<f64>, Dia
         .map(|c| prep.blocks(&c.values))
         .collect();
     Ok(linalg::Basis::new(&cols).residual(&prep.y_b))
+}
+
+fn one() -> f64 {
+    1.0
 }
 
 /// The most findings one diagnosis reports.

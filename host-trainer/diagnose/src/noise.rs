@@ -8,10 +8,10 @@
 //!   and recordings too long for the dense factor. The AR(3) filter alone cannot represent
 //!   the bank's correlation times of up to 100 blocks, and slow effects compete with exactly
 //!   that slow noise.
-//! * For the significance thresholds, the residual's gyro noise is fitted with the
-//!   simulator's own noise model ([`fit_gyro_noise`]: angle random walk and a Gauss–Markov
-//!   bank for bias instability, from the Allan variance of the 1 Hz residual) and
-//!   replicates of it are simulated with the simulator's generator
+//! * For the significance thresholds, replicates of the fitted gyro noise (the simulator's
+//!   noise model: white, a Gauss–Markov bank, rate random walk; fitted by REML on the 100 s
+//!   means in `reml.rs`, by the 1 Hz Allan fit [`fit_gyro_noise`] on records too long for
+//!   the dense factor) are simulated with the simulator's generator
 //!   ([`simulate_block_means`]). Not an AR(p) bootstrap: it cannot reproduce the bank's slow
 //!   wander (correlation times up to 10⁴ s) and gives 59 % false alarms on the benchmark's
 //!   no-effect recordings (measured; white noise alone gives none in 8).
@@ -21,6 +21,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
 use super::linalg::Basis;
+use super::reml::block_avar;
 use rlg_eval::metrics::allan::{octave_clusters, overlapping_adev};
 use rlg_eval::noise::gauss_markov_avar;
 use rlg_eval::noise::{NoiseGen, NoiseParams};
@@ -196,31 +197,6 @@ pub fn simulate_block_means(
         .collect()
 }
 
-/// Overlapping Allan variance of a series of block means at cluster sizes `ms` (blocks).
-fn block_avar(x: &[f64], ms: &[usize]) -> Vec<f64> {
-    ms.iter()
-        .map(|&m| {
-            if x.len() < 2 * m + 1 {
-                return 0.0;
-            }
-            let c: Vec<f64> = std::iter::once(0.0)
-                .chain(x.iter().scan(0.0, |a, v| {
-                    *a += v;
-                    Some(*a)
-                }))
-                .collect();
-            let k = x.len() + 1 - 2 * m;
-            (0..k)
-                .map(|i| {
-                    let d = (c[i + 2 * m] - 2.0 * c[i + m] + c[i]) / m as f64;
-                    0.5 * d * d
-                })
-                .sum::<f64>()
-                / k as f64
-        })
-        .collect()
-}
-
 /// Re-scales the bias instability of `p` so that the bootstrap's noise, after the same
 /// baseline fit as the data (`residual`), has the data's residual Allan variance at 200 …
 /// 1600 s (`resid_b`, the baseline residual's block means). The baseline fit absorbs part of
@@ -294,8 +270,8 @@ pub fn calibrate_bias_instability(
 /// part (σ² = (N·60)²/dt per sample) at lag 0 only; each Gauss–Markov process of the bank
 /// exactly as the generator steps it (a discrete AR(1), a = e^(−dt/τ), variance s²):
 /// lag 0 s²/m²·(m + 2·a·(m(1 − a) − (1 − a^m))/(1 − a)²), lag k ≥ 1 s²/m²·a^((k−1)m+1)·S²
-/// with S = (1 − a^m)/(1 − a). Rate random walk is not stationary and is left out (the
-/// diagnosis' noise fit never has one, see [`fit_gyro_noise`]).
+/// with S = (1 − a^m)/(1 − a). Rate random walk is not stationary and is left out here;
+/// `reml::block_mean_cov` adds it to a dense covariance.
 pub fn block_mean_autocov(p: &NoiseParams, nb: usize, m: usize, dt_s: f64) -> Vec<f64> {
     let mf = m as f64;
     let mut c = vec![0.0; nb];
@@ -323,64 +299,6 @@ pub fn block_mean_autocov(p: &NoiseParams, nb: usize, m: usize, dt_s: f64) -> Ve
     c
 }
 
-/// Restricted maximum likelihood (REML) of the bias instability B of `p` (its angle random
-/// walk kept) from block means `y_b` with the regression columns `cols_b` (the baseline):
-/// minimises ln det Σ(B) + ln det(XᵀΣ⁻¹X) + rᵀΣ⁻¹r over B = N·10^u, u ∈ [−2, 2] (41 points,
-/// parabolic refinement), Σ(B) the exact block-mean covariance ([`block_mean_autocov`]).
-///
-/// Why: the bank's slow processes show in the Allan variance of a day's record only at the
-/// few longest cluster times, where the white part still dominates, so the Allan fit (even
-/// recalibrated for the baseline fit) put B at a quarter of the truth on some no-effect
-/// recordings, and the slow wander of the noise then passed as aging or warm-up. REML uses
-/// every lag of the block means and accounts exactly for what the baseline absorbs. `None`
-/// beyond [`REML_MAX_BLOCKS`] (41 dense factors; the caller falls back to the Allan fit).
-pub fn reml_bias_instability(
-    p: &NoiseParams,
-    cols_b: &[Vec<f64>],
-    y_b: &[f64],
-    block: usize,
-    dt_s: f64,
-) -> Option<NoiseParams> {
-    use rayon::prelude::*;
-    let nb = y_b.len();
-    if nb > REML_MAX_BLOCKS || p.arw_dph_rt_h <= 0.0 {
-        return None;
-    }
-    let at = |u: f64| NoiseParams {
-        bias_instability_dph: p.arw_dph_rt_h * 10f64.powf(u),
-        ..p.clone()
-    };
-    let m2ll = |u: f64| -> f64 {
-        let q = at(u);
-        let Some(g) = GlsWhitener::new(&block_mean_autocov(&q, nb, block, dt_s)) else {
-            return f64::INFINITY;
-        };
-        let cols: Vec<Vec<f64>> = cols_b.iter().map(|c| g.whiten(c)).collect();
-        let basis = Basis::new(&cols);
-        let r = basis.residual(&g.whiten(y_b));
-        g.log_det() + basis.log_gram_det() + r.iter().map(|v| v * v).sum::<f64>()
-    };
-    let us: Vec<f64> = (0..=40).map(|i| -2.0 + 0.1 * i as f64).collect();
-    let f: Vec<f64> = us.par_iter().map(|&u| m2ll(u)).collect();
-    let k = (0..f.len()).min_by(|&a, &b| f[a].total_cmp(&f[b]))?;
-    if !f[k].is_finite() {
-        return None;
-    }
-    let u = if k == 0 || k + 1 == f.len() {
-        us[k]
-    } else {
-        // Vertex of the parabola through the three points around the minimum.
-        let (f0, f1, f2) = (f[k - 1], f[k], f[k + 1]);
-        let den = f0 - 2.0 * f1 + f2;
-        if den > 0.0 {
-            us[k] + 0.05 * (f0 - f2) / den
-        } else {
-            us[k]
-        }
-    };
-    Some(at(u))
-}
-
 /// Generalised-least-squares whitening of block means whose noise has a known stationary
 /// covariance: x ↦ L⁻¹x with Σ = LLᵀ (Cholesky of the Toeplitz matrix of the autocovariance).
 /// Under that noise the whitened series is exactly white with unit variance, so least squares
@@ -390,10 +308,6 @@ pub fn reml_bias_instability(
 pub struct GlsWhitener {
     l: faer::Mat<f64>,
 }
-
-/// Longest series whose bias instability is fitted by REML (about 1.7 days of 100 s means;
-/// 41 Cholesky factors of this size take a few seconds).
-pub const REML_MAX_BLOCKS: usize = 1500;
 
 /// Largest series whitened by the exact Cholesky factor (a dense n×n factor: 4 000 blocks is
 /// 128 MB and ~5 s to factor; a longer recording is whitened by its AR(p) fit instead).
@@ -408,7 +322,16 @@ impl GlsWhitener {
         if n == 0 || n > GLS_MAX_BLOCKS || !acov.iter().all(|v| v.is_finite()) {
             return None;
         }
-        let sigma = faer::Mat::from_fn(n, n, |i, j| acov[i.abs_diff(j)]);
+        Self::from_cov(faer::Mat::from_fn(n, n, |i, j| acov[i.abs_diff(j)]))
+    }
+
+    /// The whitener of block means with the dense covariance `sigma` (a non-stationary part
+    /// such as rate random walk included), or `None` when it is not positive definite or
+    /// larger than [`GLS_MAX_BLOCKS`].
+    pub fn from_cov(sigma: faer::Mat<f64>) -> Option<Self> {
+        if sigma.nrows() == 0 || sigma.nrows() > GLS_MAX_BLOCKS {
+            return None;
+        }
         let llt = sigma.llt(faer::Side::Lower).ok()?;
         Some(Self {
             l: llt.L().to_owned(),
@@ -560,52 +483,6 @@ mod tests {
         assert!((var - 1.0).abs() < 0.05, "variance {var}");
         assert!((c1 / ss).abs() < 0.03, "lag-1 correlation {}", c1 / ss);
         assert!((c5 / ss).abs() < 0.03, "lag-5 correlation {}", c5 / ss);
-    }
-
-    /// REML recovers the bias instability of simulated noise seen through a baseline fit
-    /// (offset and trend) on eight 11 h records: the geometric mean of REML/truth within 15 %
-    /// of 1, and REML's rms log error below the Allan fit's on the same records (the Allan fit
-    /// sees the slow processes only at its few longest cluster times).
-    #[test]
-    fn reml_recovers_bias_instability() {
-        let p = NoiseParams {
-            arw_dph_rt_h: 2.5e-4,
-            bias_instability_dph: 5e-4,
-            ..Default::default()
-        };
-        let (nb, m) = (400usize, 100usize);
-        let cols = vec![
-            vec![1.0; nb],
-            (0..nb).map(|i| i as f64 / nb as f64).collect::<Vec<f64>>(),
-        ];
-        let (mut lr, mut lr2, mut la2) = (0.0, 0.0, 0.0);
-        let reps = 8u64;
-        for rep in 0..reps {
-            let mut gen = NoiseGen::new(&p, 40 + rep);
-            let x: Vec<f64> = (0..nb * m).map(|_| gen.step(1.0, 1.0)).collect();
-            let y = rlg_eval::metrics::block_means(&x, m);
-            let allan = fit_gyro_noise(&x, 1.0);
-            let q = reml_bias_instability(&allan, &cols, &y, m, 1.0).expect("fits");
-            let r = (q.bias_instability_dph / p.bias_instability_dph).ln();
-            let a = (allan.bias_instability_dph.max(1e-9) / p.bias_instability_dph).ln();
-            println!(
-                "record {rep}: REML/truth {:.2}, Allan/truth {:.2}",
-                r.exp(),
-                a.exp()
-            );
-            lr += r;
-            lr2 += r * r;
-            la2 += a * a;
-        }
-        let n = reps as f64;
-        let gm = (lr / n).exp();
-        assert!((gm - 1.0).abs() < 0.15, "geometric mean REML/truth {gm}");
-        assert!(
-            lr2 < la2,
-            "rms log error REML {} vs Allan {}",
-            (lr2 / n).sqrt(),
-            (la2 / n).sqrt()
-        );
     }
 
     /// An AR(1) with φ = 0.6 is recovered (order and coefficient) from a long simulation,

@@ -83,8 +83,10 @@ pub(super) fn scan(
     }
 }
 
-/// Piecewise-constant columns in time (12 chunks) and in temperature (8 bands): a generic
-/// basis for "is there any structure at all", with no physics in it.
+/// Piecewise-constant columns in time (12 chunks), in temperature (8 bands) and in dT/dt
+/// (4 bands): a generic basis for "is there any structure at all", with no physics in it.
+/// The dT/dt bands see what differs between heating, cooling and holds (a term even in
+/// dT/dt, which the model's odd rate terms cannot take).
 pub(super) fn generic_columns(prep: &Prepared) -> Vec<Vec<f64>> {
     let nb = prep.nb();
     let mut cols = Vec::new();
@@ -106,6 +108,20 @@ pub(super) fn generic_columns(prep: &Prepared) -> Vec<Vec<f64>> {
             prep.temp_b
                 .iter()
                 .map(|t| f64::from(u8::from(*t >= w[0] && *t < w[1])))
+                .collect(),
+        );
+    }
+    let mut rates = prep.dtemp_b.clone();
+    rates.sort_by(f64::total_cmp);
+    let edges: Vec<f64> = (1..4).map(|k| rates[k * nb / 4]).collect();
+    for w in edges
+        .windows(2)
+        .chain(std::iter::once(&[edges[2], f64::INFINITY][..]))
+    {
+        cols.push(
+            prep.dtemp_b
+                .iter()
+                .map(|r| f64::from(u8::from(*r >= w[0] && *r < w[1])))
                 .collect(),
         );
     }

@@ -24,13 +24,54 @@ pub struct HeldOut {
 }
 
 pub(super) fn cross_validate(prep: &Prepared, cols1: &[Vec<f64>], k: usize) -> HeldOut {
+    let fold: Vec<usize> = (0..prep.nb()).map(|b| (b / CHUNK_BLOCKS) % FOLDS).collect();
+    cross_validate_by(prep, cols1, k, &fold)
+}
+
+/// The temperature cycle of each block (`rlg_io::cycles`), when the record has at least two.
+pub(super) fn cycle_folds(prep: &Prepared) -> Option<Vec<usize>> {
+    let spans = rlg_io::cycles::cycle_spans(&prep.t_b, &prep.temp_b);
+    (spans.len() >= 2).then(|| {
+        prep.t_b
+            .iter()
+            .map(|t| {
+                spans
+                    .iter()
+                    .position(|s| *t < s.1)
+                    .unwrap_or(spans.len() - 1)
+            })
+            .collect()
+    })
+}
+
+/// Held-out sum of squares of the 100 s means when each temperature cycle is predicted
+/// from the others (`fold`: the cycle of each block), with `extra` added to `model` or not.
+pub(super) fn cycle_rss(
+    prep: &Prepared,
+    model: &PhysicsModel,
+    extra: Option<&Term>,
+    fold: &[usize],
+) -> Result<f64, DiagnoseError> {
+    let mdrive = model_drive(model, prep)?;
+    let ex = extra.and_then(nonlinear_of);
+    let cols = model_columns(
+        prep,
+        model,
+        &mdrive,
+        ex.as_ref().map(|(f, nl)| (*f, &nl[..])),
+    )?;
+    Ok(cross_validate_by(prep, &cols, cols.len(), fold).rss_b)
+}
+
+/// Cross-validation of the 100 s means with the given fold of each block.
+fn cross_validate_by(prep: &Prepared, cols1: &[Vec<f64>], k: usize, fold: &[usize]) -> HeldOut {
     let cols_b: Vec<Vec<f64>> = cols1.iter().map(|c| prep.blocks(c)).collect();
     let nb = prep.nb();
-    let fold = |b: usize| (b / CHUNK_BLOCKS) % FOLDS;
+    let folds = fold.iter().max().map_or(0, |m| m + 1);
     let mut resid1 = vec![0.0; prep.rate_dph.len()];
     let mut rss = 0.0;
-    for f in 0..FOLDS {
-        let train: Vec<usize> = (0..nb).filter(|&b| fold(b) != f).collect();
+    for f in 0..folds {
+        let train: Vec<usize> = (0..nb).filter(|&b| fold[b] != f).collect();
         if train.len() == nb {
             continue;
         }
@@ -40,7 +81,7 @@ pub(super) fn cross_validate(prep: &Prepared, cols1: &[Vec<f64>], k: usize) -> H
             .collect();
         let ty: Vec<f64> = train.iter().map(|&b| prep.y_b[b]).collect();
         let beta = Basis::new(&tc).coefficients(&ty);
-        for b in (0..nb).filter(|&b| fold(b) == f) {
+        for b in (0..nb).filter(|&b| fold[b] == f) {
             let pred: f64 = cols_b.iter().zip(&beta).map(|(c, w)| c[b] * w).sum();
             rss += (prep.y_b[b] - pred).powi(2);
             for i in b * prep.block..(b + 1) * prep.block {

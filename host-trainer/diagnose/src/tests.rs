@@ -34,6 +34,25 @@ fn no_effect_is_consistent() {
     assert!(d.findings.is_empty());
 }
 
+/// A clean recording whose gyro counts 0.1″ angle increments (undithered: the 1 s noise is
+/// a tenth of a count) and whose bias wanders as a rate random walk four times the shipped
+/// scenario's: `consistent`, and the evidence says why the noise-scale test was not run.
+#[test]
+fn quantised_output_with_rate_random_walk_is_consistent() {
+    let mut sc = scenario(vec![], 1.0);
+    sc.noise.angle_quantum_arcsec = 0.1;
+    sc.noise.rrw_dph_per_rt_h = 2e-4;
+    let sim = simulate(&sc, 21).expect("simulates");
+    let d =
+        diagnose(&sim.recording, &PhysicsModel::paper(), &Options::default()).expect("diagnoses");
+    assert_eq!(d.verdict, Verdict::Consistent, "{:#?}", d.evidence);
+    assert!(
+        d.evidence.notes.iter().any(|n| n.contains("quantised")),
+        "{:?}",
+        d.evidence.notes
+    );
+}
+
 /// A 300 s sensor lag (against the truth's 0 s) is attributed to `sensor_lag` with τ within
 /// 20 % of the injected value.
 #[test]
