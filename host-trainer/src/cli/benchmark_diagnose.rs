@@ -1,8 +1,24 @@
-//! `rlg benchmark-diagnose`: the concealed-effect benchmark of the diagnosis.
+//! `rlg benchmark-diagnose`: the concealed-effect benchmark of the diagnosis, on the
+//! simulator's recordings (`matched`) or on an independent generator's (`mismatched`).
 
 use std::path::PathBuf;
 
-use rlg_benchmarks::diagnose::{report_markdown, run_benchmark, BenchOptions};
+use clap::ValueEnum;
+use rlg_benchmarks::diagnose::mismatch::{
+    calibration_png, calibration_png_of, mismatch_report_markdown, run_mismatched, Kind,
+    MismatchOptions,
+};
+use rlg_benchmarks::diagnose::{report_markdown, run_benchmark, BenchOptions, CaseResult, Label};
+
+/// Which recordings the benchmark diagnoses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Set {
+    /// The simulator's: the noise model, thermal model and profiles the diagnosis assumes.
+    Matched,
+    /// An independent generator's: other profiles, chamber control, a two-node body, noise
+    /// the diagnosis' model does not describe, and effects outside the term library.
+    Mismatched,
+}
 
 /// Arguments of `rlg benchmark-diagnose`.
 #[derive(Debug, clap::Args)]
@@ -13,24 +29,49 @@ pub struct BenchmarkDiagnoseArgs {
     /// Working directory for the recordings; `results.json` and `report.md` are written here.
     #[arg(long)]
     pub out: PathBuf,
-    /// A few recordings per term instead of 20 (and 8 instead of 100 without a hidden term).
+    /// Which recordings: the simulator's (`matched`) or the independent generator's
+    /// (`mismatched`; also writes `calibration.png`).
+    #[arg(long, value_enum, default_value_t = Set::Matched)]
+    pub set: Set,
+    /// A few recordings per term: 2 instead of 20 (mismatched: 12) per term, 8 instead of
+    /// 100 (mismatched: 60) without a hidden term.
     #[arg(long)]
     pub quick: bool,
     /// Keep the recordings and truth sidecars.
     #[arg(long)]
     pub keep: bool,
     /// False-alarm probability of the diagnosis' significance test (default: the
-    /// diagnosis' own); the report adds the verdicts at every smaller α of 0.25 … 5 %.
+    /// diagnosis' own); the matched report adds the verdicts at every smaller α of
+    /// 0.25 … 5 %, the mismatched one its calibration at 1, 2, 5 and 10 % (exact up to this α).
     #[arg(long)]
     pub alpha: Option<f64>,
     /// Only the cases hiding these terms (library names, comma-separated; `none` for the
-    /// cases with nothing hidden). Each case keeps its number and recording.
+    /// cases with nothing hidden; in the mismatched set also `step` and `rate_squared`, the
+    /// effects outside the library). Each case keeps its number and recording.
     #[arg(long, value_delimiter = ',')]
     pub only: Vec<String>,
 }
 
+/// The α given on the command line, checked against what the bootstrap resolves.
+fn checked_alpha(alpha: Option<f64>) -> anyhow::Result<Option<f64>> {
+    let Some(a) = alpha else { return Ok(None) };
+    anyhow::ensure!(
+        a > 0.0 && a < 1.0,
+        "--alpha must lie strictly between 0 and 1, got {a}"
+    );
+    let b = rlg_diagnose::Options::default().bootstrap;
+    anyhow::ensure!(
+        a * b as f64 >= 1.0,
+        "--alpha {a} is below what the diagnosis' {b} bootstrap replicates resolve (1/{b})"
+    );
+    Ok(Some(a))
+}
+
 /// Runs the subcommand.
 pub fn run(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
+    if args.set == Set::Mismatched {
+        return run_mismatched_set(args);
+    }
     let mut opts = if args.quick {
         BenchOptions::quick(args.seed)
     } else {
@@ -43,22 +84,14 @@ pub fn run(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
             n => Some(rlg_diagnose::Family::from_name(n).ok_or_else(|| {
                 let known: Vec<&str> = rlg_diagnose::Family::ALL.iter().map(|f| f.name()).collect();
                 anyhow::anyhow!(
-                    "--only: unknown term `{n}`; known: none, {}",
+                    "--only: unknown term `{n}`; known: none, {} (step and rate_squared only \
+                     with --set mismatched)",
                     known.join(", ")
                 )
             })?),
         });
     }
-    if let Some(a) = args.alpha {
-        anyhow::ensure!(
-            a > 0.0 && a < 1.0,
-            "--alpha must lie strictly between 0 and 1, got {a}"
-        );
-        let b = rlg_diagnose::Options::default().bootstrap;
-        anyhow::ensure!(
-            a * b as f64 >= 1.0,
-            "--alpha {a} is below what the diagnosis' {b} bootstrap replicates resolve (1/{b})"
-        );
+    if let Some(a) = checked_alpha(args.alpha)? {
         opts.alpha = a;
     }
     let t0 = std::time::Instant::now();
@@ -69,6 +102,48 @@ pub fn run(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
         serde_json::to_string_pretty(&results)?.as_bytes(),
     )?;
     rlg_io::recording::write_atomic(&args.out.join("report.md"), md.as_bytes())?;
+    let clean: Vec<&CaseResult> = results.iter().filter(|r| r.truth == Label::None).collect();
+    if !clean.is_empty() {
+        calibration_png_of(&clean, "matched", &args.out.join("calibration.png"))?;
+    }
+    println!("{md}");
+    eprintln!(
+        "{} recordings in {:.1} s",
+        results.len(),
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// The mismatched set: results, report and calibration figure.
+fn run_mismatched_set(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
+    let mut opts = if args.quick {
+        MismatchOptions::quick(args.seed)
+    } else {
+        MismatchOptions::full(args.seed)
+    };
+    opts.keep = args.keep;
+    for name in &args.only {
+        opts.only.push(Kind::from_name(name).ok_or_else(|| {
+            let known: Vec<&str> = rlg_diagnose::Family::ALL.iter().map(|f| f.name()).collect();
+            anyhow::anyhow!(
+                "--only: unknown term `{name}`; known: none, step, rate_squared, {}",
+                known.join(", ")
+            )
+        })?);
+    }
+    if let Some(a) = checked_alpha(args.alpha)? {
+        opts.alpha = a;
+    }
+    let t0 = std::time::Instant::now();
+    let results = run_mismatched(&opts, &args.out)?;
+    let md = mismatch_report_markdown(&results);
+    rlg_io::recording::write_atomic(
+        &args.out.join("results.json"),
+        serde_json::to_string_pretty(&results)?.as_bytes(),
+    )?;
+    rlg_io::recording::write_atomic(&args.out.join("report.md"), md.as_bytes())?;
+    calibration_png(&results, &args.out.join("calibration.png"))?;
     println!("{md}");
     eprintln!(
         "{} recordings in {:.1} s",

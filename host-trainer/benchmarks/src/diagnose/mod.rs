@@ -26,6 +26,7 @@
 mod cases;
 mod detectability;
 mod label;
+pub mod mismatch;
 mod report;
 mod result;
 mod score;

@@ -59,6 +59,10 @@ pub struct PValues {
     pub finding: Option<f64>,
     /// The generic structure test's p-value.
     pub structure: f64,
+    /// The verdict's p-value: the smallest α at which it would not be `none` (None in
+    /// results written before it was reported: then the smaller of `best` and `structure`).
+    #[serde(default)]
+    pub verdict: Option<f64>,
     /// The true family's p-value had it been the only family tested (None: nothing hidden).
     #[serde(default)]
     pub true_family_alone: Option<f64>,
@@ -77,7 +81,7 @@ impl CaseResult {
         let p = &self.p_values;
         if p.finding.is_some_and(|v| v <= alpha) {
             self.predicted
-        } else if p.best <= alpha || p.structure <= alpha {
+        } else if p.verdict.unwrap_or(p.best.min(p.structure)) <= alpha {
             Label::Unexplained
         } else {
             Label::None

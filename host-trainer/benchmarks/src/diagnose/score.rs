@@ -71,6 +71,7 @@ pub(super) fn score(
                     .map(|c| c.p_value)
             }),
             structure: d.evidence.structure_p_value,
+            verdict: Some(d.evidence.p_value),
             true_family_alone: None,
         },
         alpha: 0.0,

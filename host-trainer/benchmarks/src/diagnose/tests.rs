@@ -120,6 +120,7 @@ fn verdict_at_a_smaller_alpha() {
             best: 0.004,
             finding: Some(0.02),
             structure: 0.3,
+            verdict: None,
             true_family_alone: Some(0.001),
         },
         alpha: 0.05,
@@ -137,9 +138,22 @@ fn verdict_at_a_smaller_alpha() {
         best: 0.2,
         finding: None,
         structure: 0.5,
+        verdict: None,
         true_family_alone: None,
     };
     assert_eq!(r.predicted_at(0.01), Label::None);
+    // A significant candidate that does not count (not separable from slow noise): the
+    // verdict's own p-value decides.
+    r.p_values = PValues {
+        best: 0.001,
+        finding: None,
+        structure: 0.5,
+        verdict: Some(0.5),
+        true_family_alone: None,
+    };
+    assert_eq!(r.predicted_at(0.01), Label::None);
+    r.p_values.verdict = Some(0.004);
+    assert_eq!(r.predicted_at(0.01), Label::Unexplained);
 }
 
 /// The quick benchmark end to end (release only: `cargo test --release -p rlg-benchmarks

@@ -1,0 +1,405 @@
+//! One mismatched case: its conditions, its hidden effect set to the drawn detectability,
+//! and the recording the diagnosis reads.
+
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use serde::Serialize;
+
+use super::detect::Metric;
+use super::hidden::{hetero_d, library_term, mean_effect, Hidden};
+use super::noise::{describe_noise, NoiseDraw, PAPER_ARW, PAPER_BI};
+use super::thermal::{self, describe_body, describe_chamber, Body, Chamber, Profile, Trajectory};
+use super::{uni, Kind};
+use crate::diagnose::BenchError;
+use rlg_diagnose::prepare::{prepare, PhysicsModel};
+use rlg_diagnose::variance::heteroscedastic_detectability;
+use rlg_eval::paper::eq11;
+use rlg_io::recording::Recording;
+use rlg_physics::{contribution, Axis, Term};
+
+/// Sample period, s.
+pub(super) const DT_S: f64 = 1.0;
+
+/// Quantum of every temperature reading, °C; a hidden `temp_quantization` replaces it.
+pub(super) const READ_QUANTUM_C: f64 = 0.01;
+
+/// Draws per case before giving up on meeting the detectability.
+const TRIES: usize = 40;
+
+/// Everything drawn for one case but the hidden effect.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Conditions {
+    /// Chamber programme and control.
+    pub chamber: Chamber,
+    /// Gyro body.
+    pub body: Body,
+    /// σ of the temperature reading's white noise before rounding, °C.
+    pub temp_noise_c: f64,
+    /// The base bias: Earth rate and the paper's Eq. (11) terms, coefficients varied.
+    pub bias: Vec<Term>,
+    /// Gyro noise.
+    pub noise: NoiseDraw,
+    /// Seed of the reading's noise.
+    pub seed_temp: u64,
+    /// Seed of the gyro noise.
+    pub seed_noise: u64,
+}
+
+impl Conditions {
+    fn draw(rng: &mut ChaCha8Rng) -> Conditions {
+        let chamber = Chamber::draw(rng);
+        let body = Body::draw(rng);
+        let temp_noise_c = if uni(rng, 0.0, 1.0) < 0.5 {
+            uni(rng, 0.0, 0.01)
+        } else {
+            0.0
+        };
+        let mut v = |x: f64| x * (1.0 + 0.3 * (2.0 * uni(rng, 0.0, 1.0) - 1.0));
+        let bias = vec![
+            Term::StaticPoly {
+                center_c: 0.0,
+                scale_c: 1.0,
+                coeffs_dph: eq11::STATIC_POLY_DPH.iter().map(|&c| v(c)).collect(),
+            },
+            Term::RateTerms {
+                linear: v(eq11::RATE_LINEAR),
+                cubic: v(eq11::RATE_CUBIC),
+                temp_linear: v(eq11::TEMP_RATE),
+            },
+            Term::EarthRate {
+                latitude_deg: uni(rng, 20.0, 60.0),
+                axis: if uni(rng, 0.0, 1.0) < 0.5 {
+                    Axis::Up
+                } else {
+                    Axis::Down
+                },
+            },
+        ];
+        let n = (chamber.duration_s / DT_S).round() as usize;
+        let noise = NoiseDraw::draw(rng, n);
+        Conditions {
+            chamber,
+            body,
+            temp_noise_c,
+            bias,
+            noise,
+            seed_temp: rng.random(),
+            seed_noise: rng.random(),
+        }
+    }
+
+    /// The conditions present, by name ([`CONDITION_TAGS`]), for the per-condition counts
+    /// of the report.
+    pub(super) fn tags(&self) -> Vec<String> {
+        let n = &self.noise;
+        let rate = match &self.chamber.profile {
+            Profile::Ramp { rate_c_per_min, .. } => Some(*rate_c_per_min),
+            _ => None,
+        };
+        let on = [
+            rate.is_some_and(|r| r < 0.5),
+            rate.is_some_and(|r| (0.5..2.0).contains(&r)),
+            rate.is_some_and(|r| r >= 2.0),
+            matches!(self.chamber.profile, Profile::Sine { .. }),
+            matches!(self.chamber.profile, Profile::Staircase { .. }),
+            self.chamber.hunting.is_some(),
+            self.body.warm_s > 0.0,
+            self.body.sensor_on_core,
+            self.temp_noise_c > 0.0,
+            n.student_t,
+            n.quantum_arcsec > 0.0,
+            n.rrw_dph_per_rt_h > 0.0,
+            n.one_over_f,
+            !n.spikes.is_empty(),
+        ];
+        CONDITION_TAGS
+            .iter()
+            .zip(on)
+            .filter(|(_, on)| *on)
+            .map(|(t, _)| t.to_string())
+            .collect()
+    }
+}
+
+/// The conditions a case may have, in the report's order.
+pub(super) const CONDITION_TAGS: [&str; 14] = [
+    "ramps 0.3 °C/min",
+    "ramps 1 °C/min",
+    "ramps 3 °C/min",
+    "day/night sine",
+    "15 °C staircase",
+    "PID hunting + overshoot",
+    "warm start",
+    "sensor on the core",
+    "temperature reading noise",
+    "Student-t white noise",
+    "angle quantisation",
+    "rate random walk",
+    "1/f-like bank",
+    "spikes",
+];
+
+/// The temperature column: the sensor node (lagged for a hidden `sensor_lag`) plus the
+/// reading's white noise, rounded to 0.01 °C (to the coarse quantum of a hidden
+/// `temp_quantization`).
+pub(super) fn reading(tr: &Trajectory, c: &Conditions, hidden: &Hidden) -> Vec<f64> {
+    let (src, q) = match hidden {
+        Hidden::Library {
+            term: t @ Term::SensorLag { .. },
+        } => (
+            contribution(t, &tr.t_s, &tr.node_c, &tr.dnode_c_per_s),
+            READ_QUANTUM_C,
+        ),
+        Hidden::Library {
+            term: Term::TempQuantization { step_c },
+        } => (tr.node_c.clone(), *step_c),
+        _ => (tr.node_c.clone(), READ_QUANTUM_C),
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(c.seed_temp);
+    src.iter()
+        .map(|x| {
+            let z: f64 = StandardNormal.sample(&mut rng);
+            ((x + c.temp_noise_c * z) / q).round() * q
+        })
+        .collect()
+}
+
+/// A case ready to diagnose.
+#[derive(Clone, Debug)]
+pub struct Case {
+    /// Case number.
+    pub id: usize,
+    /// What the plan put here.
+    pub kind: Kind,
+    /// The conditions drawn.
+    pub conditions: Conditions,
+    /// The hidden effect at its amplitude.
+    pub hidden: Hidden,
+    /// The drawn detectability (0 for a clean case).
+    pub target_d: f64,
+    /// The detectability reached.
+    pub d: f64,
+    /// ‖P⊥ē‖/σ₁₀₀ of the mean effect (the heteroscedastic: its D).
+    pub marginal: f64,
+    /// Share of the mean effect's block energy inside the baseline's span.
+    pub energy_in_span: f64,
+    /// Peak of the effect over the 1 s noise σ.
+    pub peak_over_sigma1: f64,
+    /// Chamber and body history.
+    pub trajectory: Trajectory,
+    /// What the diagnosis reads.
+    pub recording: Recording,
+}
+
+impl Case {
+    /// One line on every condition and the hidden effect.
+    pub fn describe(&self) -> String {
+        let c = &self.conditions;
+        let tn = if c.temp_noise_c > 0.0 {
+            format!("T noise {:.4} °C", c.temp_noise_c)
+        } else {
+            "no T noise".into()
+        };
+        format!(
+            "{}; {}; {tn}; {}; hidden: {}",
+            describe_chamber(&c.chamber),
+            describe_body(&c.body),
+            describe_noise(&c.noise),
+            self.hidden.describe()
+        )
+    }
+}
+
+/// A recording of the trajectory with the given rate and temperature columns.
+pub(super) fn recording(id: usize, tr: &Trajectory, rate: Vec<f64>, temp: Vec<f64>) -> Recording {
+    Recording {
+        time_s: tr.t_s.clone(),
+        rate_dph: rate,
+        temp_c: temp,
+        chamber_c: Some(tr.air_c.clone()),
+        comments: vec![format!(
+            " rlg benchmark-diagnose --set mismatched: case {id}"
+        )],
+        ..Default::default()
+    }
+}
+
+/// Builds case `id` of the plan's `kind` (see the module doc of `mismatch`): its own seeded
+/// draw; the hidden effect set to a detectability drawn in 3…10 (linear amplitudes by one
+/// ratio, the heteroscedastic `k` by bisection, sensor terms through the noise level).
+pub fn build_case(
+    id: usize,
+    kind: Kind,
+    seed: u64,
+    model: &PhysicsModel,
+) -> Result<Case, BenchError> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(id as u64);
+    let target = uni(&mut rng, 3.0, 10.0);
+    let mut fallback = None;
+    for _ in 0..TRIES {
+        let mut c = Conditions::draw(&mut rng);
+        let tr = thermal::run(&c.chamber, &c.body, DT_S);
+        let mut sorted = tr.node_c.clone();
+        sorted.sort_by(f64::total_cmp);
+        let q = |p: f64| sorted[((p * (sorted.len() - 1) as f64).round()) as usize];
+        let (lo, hi) = (q(0.05), q(0.95));
+        let sign = if uni(&mut rng, 0.0, 1.0) < 0.5 {
+            -1.0
+        } else {
+            1.0
+        };
+        let unit = match kind {
+            Kind::Clean => Hidden::None,
+            Kind::Library(f) => Hidden::Library {
+                term: library_term(f, &mut rng, lo, hi),
+            },
+            Kind::Step => Hidden::Step {
+                time_s: (c.chamber.duration_s * uni(&mut rng, 0.2, 0.8)).round(),
+                step_dph: sign,
+            },
+            Kind::RateSquared => Hidden::RateSquared { coeff: sign },
+        };
+        let read = reading(&tr, &c, &unit);
+        if kind == Kind::Clean {
+            let stats = (0.0, 0.0, 0.0);
+            return Ok(assemble(id, kind, c, unit, 0.0, 0.0, stats, tr, read));
+        }
+        let prep = prepare(&recording(id, &tr, vec![0.0; tr.t_s.len()], read.clone()))?;
+        let Some(metric) = Metric::new(&prep, model, &c.noise)? else {
+            continue;
+        };
+        let s1 = c.noise.sigma1(DT_S);
+        match &unit {
+            Hidden::Library {
+                term: Term::Heteroscedastic { ref_c, .. },
+            } => {
+                // D is not linear in k (it is in ln(1 + k·x)): bisection on a log scale.
+                let body = &tr.node_c[prep.range.clone()];
+                let d_of = |k: f64| heteroscedastic_detectability(body, k, *ref_c);
+                let (mut a, mut b) = (1e-5, 10.0);
+                if d_of(b) < target {
+                    continue;
+                }
+                for _ in 0..60 {
+                    let m = (a * b).sqrt();
+                    if d_of(m) < target {
+                        a = m;
+                    } else {
+                        b = m;
+                    }
+                }
+                let k = (a * b).sqrt();
+                let xmax = tr
+                    .node_c
+                    .iter()
+                    .map(|t| ((t - ref_c) / 30.0).powi(2))
+                    .fold(0.0, f64::max);
+                let h = unit.scaled(k);
+                let d = hetero_d(&h, &tr, &prep).unwrap_or(f64::NAN);
+                let stats = (d, 0.0, c.noise.white_sigma(DT_S) * k * xmax / s1);
+                return Ok(assemble(id, kind, c, h, target, d, stats, tr, read));
+            }
+            Hidden::Library {
+                term: Term::SensorLag { .. } | Term::TempQuantization { .. },
+            } => {
+                // No amplitude: the noise level sets D (D is 1/k when every noise amplitude
+                // is k times as large).
+                let e = mean_effect(&unit, &tr, &c.bias, &read)?;
+                let d_unit = metric.d(&prep, &e);
+                if !(d_unit > 0.0 && d_unit.is_finite()) {
+                    continue;
+                }
+                let k = d_unit / target;
+                let (marg, span) = metric.marginal(&prep, &e);
+                let peak = e.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+                let levels = [
+                    c.noise.arw_dph_rt_h / PAPER_ARW,
+                    c.noise.bias_instability_dph / PAPER_BI,
+                ];
+                let ok = levels.iter().all(|s| (0.1..=5.0).contains(&(s * k)));
+                c.noise = c.noise.scaled(k);
+                let stats = (marg / k, span, peak / (s1 * k));
+                let case = assemble(id, kind, c, unit, target, d_unit / k, stats, tr, read);
+                if ok {
+                    return Ok(case);
+                }
+                // Keep the last draw in case none brings the noise within 0.1–5× the paper's.
+                fallback = Some(case);
+                continue;
+            }
+            _ => {}
+        }
+        // D is linear in the amplitude: one ratio.
+        let e = unit.bias_effect(&tr);
+        let d_unit = metric.d(&prep, &e);
+        if !(d_unit > 0.0 && d_unit.is_finite()) {
+            continue;
+        }
+        let a = target / d_unit;
+        let (marg, span) = metric.marginal(&prep, &e);
+        let peak = a * e.iter().fold(0.0f64, |m, v| m.max(v.abs())) / s1;
+        let h = unit.scaled(a);
+        let stats = (a * marg, span, peak);
+        return Ok(assemble(
+            id,
+            kind,
+            c,
+            h,
+            target,
+            a * d_unit,
+            stats,
+            tr,
+            read,
+        ));
+    }
+    fallback.ok_or_else(|| BenchError::Truth {
+        path: format!("mismatched case {id}"),
+        message: format!("no draw in {TRIES} reached detectability {target:.2}"),
+    })
+}
+
+/// The case with its recording: base bias and hidden effect on the sensor node, the noise
+/// (its white part scaled by a hidden `heteroscedastic`), the reading.
+#[allow(clippy::too_many_arguments)]
+fn assemble(
+    id: usize,
+    kind: Kind,
+    c: Conditions,
+    hidden: Hidden,
+    target_d: f64,
+    d: f64,
+    (marginal, energy_in_span, peak_over_sigma1): (f64, f64, f64),
+    tr: Trajectory,
+    read: Vec<f64>,
+) -> Case {
+    let mut clean = hidden.bias_effect(&tr);
+    for b in &c.bias {
+        let v = contribution(b, &tr.t_s, &tr.node_c, &tr.dnode_c_per_s);
+        clean.iter_mut().zip(&v).for_each(|(o, x)| *o += x);
+    }
+    let scale = match &hidden {
+        Hidden::Library {
+            term: t @ Term::Heteroscedastic { .. },
+        } => Some(contribution(t, &tr.t_s, &tr.node_c, &tr.dnode_c_per_s)),
+        _ => None,
+    };
+    let rate = c
+        .noise
+        .generate(&clean, scale.as_deref(), DT_S, c.seed_noise);
+    let recording = recording(id, &tr, rate, read);
+    Case {
+        id,
+        kind,
+        conditions: c,
+        hidden,
+        target_d,
+        d,
+        marginal,
+        energy_in_span,
+        peak_over_sigma1,
+        trajectory: tr,
+        recording,
+    }
+}

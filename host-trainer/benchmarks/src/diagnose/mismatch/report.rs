@@ -1,0 +1,374 @@
+//! The mismatched set's Markdown report and calibration figure.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use plotters::prelude::*;
+
+use super::gen::CONDITION_TAGS;
+use super::{Kind, MismatchResult};
+use crate::diagnose::{BenchError, CaseResult, Label};
+use rlg_diagnose::candidates::Family;
+
+/// The α at which the calibration is read.
+const CAL_ALPHAS: [f64; 4] = [0.01, 0.02, 0.05, 0.10];
+
+fn pct(a: usize, b: usize) -> String {
+    if b == 0 {
+        "–".to_string()
+    } else {
+        format!("{:.0} % ({a}/{b})", 100.0 * a as f64 / b as f64)
+    }
+}
+
+/// 95 % Wilson interval of a share k/n.
+fn wilson(k: usize, n: usize) -> (f64, f64) {
+    if n == 0 {
+        return (0.0, 1.0);
+    }
+    let (z, nf) = (1.96, n as f64);
+    let p = k as f64 / nf;
+    let c = (p + z * z / (2.0 * nf)) / (1.0 + z * z / nf);
+    let h = z / (1.0 + z * z / nf) * (p * (1.0 - p) / nf + z * z / (4.0 * nf * nf)).sqrt();
+    ((c - h).max(0.0), (c + h).min(1.0))
+}
+
+/// The α the run was made at (the largest of its cases').
+fn run_alpha(results: &[MismatchResult]) -> f64 {
+    results.iter().map(|r| r.result.alpha).fold(0.0, f64::max)
+}
+
+/// Clean recordings flagged at α (any verdict but consistent).
+fn flagged(clean: &[&CaseResult], a: f64) -> usize {
+    clean
+        .iter()
+        .filter(|r| r.predicted_at(a) != Label::None)
+        .count()
+}
+
+/// Clean recordings whose best candidate has p ≤ α.
+fn p_best(clean: &[&CaseResult], a: f64) -> usize {
+    clean.iter().filter(|r| r.p_values.best <= a).count()
+}
+
+/// The report of a mismatched run.
+pub fn mismatch_report_markdown(results: &[MismatchResult]) -> String {
+    let mut o = String::new();
+    let ra = run_alpha(results);
+    let clean: Vec<&CaseResult> = results
+        .iter()
+        .filter(|r| r.kind == Kind::Clean)
+        .map(|r| &r.result)
+        .collect();
+    let library: Vec<&CaseResult> = results
+        .iter()
+        .filter(|r| matches!(r.kind, Kind::Library(_)))
+        .map(|r| &r.result)
+        .collect();
+    let outside: Vec<&MismatchResult> = results.iter().filter(|r| r.kind.outside()).collect();
+    let _ = writeln!(
+        o,
+        "Mismatched set (independent generator): {} recordings, diagnosed at α = {:.1} %.\n",
+        results.len(),
+        100.0 * ra
+    );
+    let _ = writeln!(o, "| measure | result |\n|---|---|");
+    let fa = flagged(&clean, ra);
+    let named = clean
+        .iter()
+        .filter(|r| matches!(r.predicted, Label::Mechanism(_)))
+        .count();
+    let _ = writeln!(
+        o,
+        "| false alarms on clean recordings (any verdict but consistent) | {} |",
+        pct(fa, clean.len())
+    );
+    let _ = writeln!(
+        o,
+        "| false alarms naming a library mechanism | {} |",
+        pct(named, clean.len())
+    );
+    for (name, lo, hi) in [
+        ("top-1, library families, D 3–5", 3.0, 5.0),
+        ("top-1, library families, D 5–6", 5.0, 6.0),
+        ("top-1, library families, D ≥ 6", 6.0, f64::INFINITY),
+    ] {
+        let set: Vec<&&CaseResult> = library
+            .iter()
+            .filter(|r| r.detectability >= lo && r.detectability < hi)
+            .collect();
+        let ok = set.iter().filter(|r| r.predicted == r.truth).count();
+        let _ = writeln!(o, "| {name} | {} |", pct(ok, set.len()));
+    }
+    let correct: Vec<&&CaseResult> = library.iter().filter(|r| r.predicted == r.truth).collect();
+    let pok = correct.iter().filter(|r| r.param_ok == Some(true)).count();
+    let _ = writeln!(
+        o,
+        "| key parameter within tolerance (of correct identifications) | {} |",
+        pct(pok, correct.len())
+    );
+    let out_named = outside
+        .iter()
+        .filter(|r| matches!(r.result.predicted, Label::Mechanism(_)))
+        .count();
+    let out_unexp = outside
+        .iter()
+        .filter(|r| r.result.predicted == Label::Unexplained)
+        .count();
+    let _ = writeln!(
+        o,
+        "| outside-library effects named as a library mechanism | {} |",
+        pct(out_named, outside.len())
+    );
+    let _ = writeln!(
+        o,
+        "| outside-library effects called `unexplained` | {} |",
+        pct(out_unexp, outside.len())
+    );
+    let hidden: Vec<&CaseResult> = results
+        .iter()
+        .filter(|r| r.kind != Kind::Clean)
+        .map(|r| &r.result)
+        .collect();
+    let conc = hidden.iter().filter(|r| r.peak_over_sigma1 < 0.5).count();
+    let _ = writeln!(
+        o,
+        "| hidden effects concealed (peak < σ₁/2; not required here) | {} |",
+        pct(conc, hidden.len())
+    );
+    let mut secs: Vec<f64> = results.iter().map(|r| r.result.seconds).collect();
+    secs.sort_by(f64::total_cmp);
+    let _ = writeln!(
+        o,
+        "| diagnosis time per recording (median / max) | {:.2} s / {:.2} s |",
+        secs.get(secs.len() / 2).copied().unwrap_or(0.0),
+        secs.last().copied().unwrap_or(0.0)
+    );
+
+    let _ = writeln!(
+        o,
+        "\nCalibration on the {} clean recordings: share whose verdict at α is not `none` \
+         (from the bootstrap p-values; exact for α ≤ the run's α = {:.1} %, the run's verdict \
+         above it), its 95 % interval, the target band [α/2, 2α], and the share whose best \
+         candidate has p ≤ α:\n",
+        clean.len(),
+        100.0 * ra
+    );
+    let _ = writeln!(
+        o,
+        "| α | flagged | 95 % interval | band | in band | p_best ≤ α |\n|---|---|---|---|---|---|"
+    );
+    for a in CAL_ALPHAS {
+        let k = flagged(&clean, a);
+        let n = clean.len();
+        let share = k as f64 / n.max(1) as f64;
+        let (lo, hi) = wilson(k, n);
+        let exact = if a <= ra + 1e-12 { "" } else { " (run's α)" };
+        let inside = if n == 0 {
+            "–"
+        } else if (0.5 * a..=2.0 * a).contains(&share) {
+            "yes"
+        } else {
+            "no"
+        };
+        let _ = writeln!(
+            o,
+            "| {:.0} %{exact} | {} | {:.1}–{:.1} % | {:.1}–{:.0} % | {inside} | {} |",
+            100.0 * a,
+            pct(k, n),
+            100.0 * lo,
+            100.0 * hi,
+            50.0 * a,
+            200.0 * a,
+            pct(p_best(&clean, a), n)
+        );
+    }
+
+    // At the run's α and at the diagnosis' default 2 % when the run's is larger.
+    let low = CAL_ALPHAS[1].min(ra);
+    let two = low < ra - 1e-12;
+    let at_alpha = if two {
+        format!("{:.1} % / {:.1} %", 100.0 * ra, 100.0 * low)
+    } else {
+        format!("{:.1} %", 100.0 * ra)
+    };
+    let _ = writeln!(
+        o,
+        "\nFalse alarms by condition (clean recordings flagged at α = {at_alpha} of those with \
+         and without it; in brackets: flagged naming a mechanism at the run's α):\n"
+    );
+    let _ = writeln!(o, "| condition | with it | without it |\n|---|---|---|");
+    let clean_mm: Vec<&MismatchResult> = results.iter().filter(|r| r.kind == Kind::Clean).collect();
+    let cell = |set: &[&&MismatchResult]| {
+        let at = |a: f64| {
+            set.iter()
+                .filter(|r| r.result.predicted_at(a) != Label::None)
+                .count()
+        };
+        let nm = set
+            .iter()
+            .filter(|r| matches!(r.result.predicted, Label::Mechanism(_)))
+            .count();
+        if two {
+            format!("{} / {} of {} ({nm})", at(ra), at(low), set.len())
+        } else {
+            format!("{} of {} ({nm})", at(ra), set.len())
+        }
+    };
+    for tag in CONDITION_TAGS {
+        let (with, without): (Vec<&&MismatchResult>, Vec<&&MismatchResult>) = clean_mm
+            .iter()
+            .partition(|r| r.conditions.iter().any(|c| c == tag));
+        let _ = writeln!(o, "| {tag} | {} | {} |", cell(&with), cell(&without));
+    }
+
+    let mut cols: Vec<Label> = Family::ALL
+        .iter()
+        .map(|f| Label::Mechanism(f.mechanism()))
+        .collect();
+    cols.push(Label::None);
+    cols.push(Label::Unexplained);
+    let _ = writeln!(
+        o,
+        "\nConfusion matrix (rows: hidden effect, columns: diagnosis; `step` and `rate_squared` \
+         are outside the library, right answer `unexplained`):\n"
+    );
+    let names: Vec<&str> = cols.iter().map(|c| c.name()).collect();
+    let _ = writeln!(o, "| hidden \\ diagnosed | {} |", names.join(" | "));
+    let _ = writeln!(o, "|---|{}", "---|".repeat(cols.len()));
+    let mut rows: Vec<Kind> = Family::ALL.iter().map(|f| Kind::Library(*f)).collect();
+    rows.extend([Kind::Step, Kind::RateSquared, Kind::Clean]);
+    for row in rows {
+        let rs: Vec<&MismatchResult> = results.iter().filter(|r| r.kind == row).collect();
+        if rs.is_empty() {
+            continue;
+        }
+        let cells: Vec<String> = cols
+            .iter()
+            .map(|c| {
+                rs.iter()
+                    .filter(|r| r.result.predicted == *c)
+                    .count()
+                    .to_string()
+            })
+            .collect();
+        let _ = writeln!(o, "| {} | {} |", row.name(), cells.join(" | "));
+    }
+    o
+}
+
+/// Draws the calibration on the clean recordings of a mismatched run (see
+/// [`calibration_png_of`]).
+pub fn calibration_png(results: &[MismatchResult], path: &Path) -> Result<(), BenchError> {
+    let clean: Vec<&CaseResult> = results
+        .iter()
+        .filter(|r| r.kind == Kind::Clean)
+        .map(|r| &r.result)
+        .collect();
+    calibration_png_of(&clean, "mismatched", path)
+}
+
+/// Draws the calibration on the clean recordings `clean` of a set (`set`: its name in the
+/// caption) to a PNG: the share flagged and the share with p_best ≤ α against α, the band
+/// [α/2, 2α] and the diagonal.
+pub fn calibration_png_of(clean: &[&CaseResult], set: &str, path: &Path) -> Result<(), BenchError> {
+    let err = |m: String| BenchError::Truth {
+        path: path.display().to_string(),
+        message: m,
+    };
+    plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
+        .map_err(|_| err("the embedded font could not be loaded".into()))?;
+    let clean = clean.to_vec();
+    let n = clean.len().max(1) as f64;
+    let ra = clean.iter().map(|r| r.alpha).fold(0.0, f64::max);
+    let xmax = 0.11f64.max(1.05 * ra).min(1.0);
+    let grid: Vec<f64> = (1..=200).map(|i| xmax * f64::from(i) / 200.0).collect();
+    let verdict: Vec<(f64, f64)> = grid
+        .iter()
+        .filter(|a| **a <= ra + 1e-12)
+        .map(|&a| (a, flagged(&clean, a) as f64 / n))
+        .collect();
+    let best: Vec<(f64, f64)> = grid
+        .iter()
+        .map(|&a| (a, p_best(&clean, a) as f64 / n))
+        .collect();
+    let ymax = verdict
+        .iter()
+        .chain(&best)
+        .map(|p| p.1)
+        .fold(2.0 * xmax, f64::max)
+        .min(1.0)
+        * 1.05;
+    let draw = || -> Result<(), Box<dyn std::error::Error>> {
+        let root = BitMapBackend::new(path, (900, 650)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                format!(
+                    "p-value calibration on {} clean {set} recordings (run at α = {:.0} %)",
+                    clean.len(),
+                    100.0 * ra
+                ),
+                ("sans-serif", 20),
+            )
+            .margin(12)
+            .x_label_area_size(50)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..xmax, 0.0..ymax)?;
+        chart
+            .configure_mesh()
+            .x_desc("α")
+            .y_desc("share of clean recordings")
+            .label_style(("sans-serif", 14))
+            .axis_desc_style(("sans-serif", 16))
+            .draw()?;
+        let band_color = RGBColor(44, 160, 44);
+        let mut band: Vec<(f64, f64)> = grid.iter().map(|&a| (a, 0.5 * a)).collect();
+        band.extend(grid.iter().rev().map(|&a| (a, (2.0 * a).min(ymax))));
+        band.insert(0, (0.0, 0.0));
+        chart
+            .draw_series(std::iter::once(Polygon::new(
+                band,
+                band_color.mix(0.2).filled(),
+            )))?
+            .label("target band [α/2, 2α]")
+            .legend(move |(x, y)| {
+                Rectangle::new([(x, y - 5), (x + 20, y + 5)], band_color.mix(0.3).filled())
+            });
+        chart
+            .draw_series(LineSeries::new(
+                [(0.0, 0.0), (xmax.min(ymax), xmax.min(ymax))],
+                BLACK.stroke_width(1),
+            ))?
+            .label("share = α")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
+        let blue = RGBColor(31, 119, 180);
+        chart
+            .draw_series(LineSeries::new(verdict.clone(), blue.stroke_width(2)))?
+            .label("verdict not `none` at α")
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], blue.stroke_width(2))
+            });
+        chart.draw_series(
+            CAL_ALPHAS
+                .iter()
+                .filter(|a| **a <= ra + 1e-12)
+                .map(|&a| Circle::new((a, flagged(&clean, a) as f64 / n), 5, blue.filled())),
+        )?;
+        let red = RGBColor(214, 39, 40);
+        chart
+            .draw_series(LineSeries::new(best, red.stroke_width(2)))?
+            .label("best candidate's p ≤ α")
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], red.stroke_width(2)));
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .label_font(("sans-serif", 14))
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()?;
+        root.present()?;
+        Ok(())
+    };
+    draw().map_err(|e| err(e.to_string()))
+}

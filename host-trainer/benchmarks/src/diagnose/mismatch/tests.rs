@@ -1,0 +1,280 @@
+//! Tests of the mismatched set's generator, detectability and report.
+
+use super::detect::Metric;
+use super::gen::DT_S;
+use super::hidden::{hetero_d, mean_effect};
+use super::noise::NoiseDraw;
+use super::*;
+use crate::diagnose::{Label, PValues};
+use rlg_diagnose::prepare::prepare;
+
+/// The same seed and case number give the same recording and conditions; another case
+/// number gives another draw.
+#[test]
+fn generator_is_deterministic() {
+    let model = PhysicsModel::paper();
+    let kind = Kind::Library(Family::GradientLag);
+    let a = build_case(3, kind, 11, &model).expect("case");
+    let b = build_case(3, kind, 11, &model).expect("case");
+    assert_eq!(a.recording, b.recording);
+    assert_eq!(a.conditions, b.conditions);
+    assert_eq!(a.hidden, b.hidden);
+    assert_eq!(a.describe(), b.describe());
+    let c = build_case(4, kind, 11, &model).expect("case");
+    assert_ne!(a.conditions, c.conditions);
+}
+
+/// Second moments of the means of three 100-sample blocks (the first starting at sample
+/// 30, as the diagnosis' blocks do) over `runs` independent realisations of `noise` on a
+/// constant rate. An ensemble, not one long series: the bank's slowest processes
+/// (correlation times up to days) barely move within one record, so a single series
+/// under-reads their variance.
+fn ensemble_moments(noise: &NoiseDraw, runs: u64) -> [[f64; 3]; 3] {
+    let (first, m) = (30, 100);
+    let rate = -7.1;
+    let clean = vec![rate; first + 3 * m];
+    let mut s = [[0.0; 3]; 3];
+    for k in 0..runs {
+        let x = noise.generate(&clean, None, DT_S, 1000 + k);
+        let b: Vec<f64> = (0..3)
+            .map(|i| {
+                let blk = &x[first + i * m..first + (i + 1) * m];
+                blk.iter().sum::<f64>() / m as f64 - rate
+            })
+            .collect();
+        for i in 0..3 {
+            for j in 0..3 {
+                s[i][j] += b[i] * b[j] / runs as f64;
+            }
+        }
+    }
+    s
+}
+
+/// The noise's 100 s means have the covariance the draw's dense Σ says: every diagonal
+/// element within 10 % and every neighbour covariance within 10 % of the diagonal, for a
+/// clean case's own draw and for a draw with every part (1/f bank, random walk, angle
+/// quantisation); and the Student-t white noise has the Gaussian's variance.
+#[test]
+fn noise_has_the_covariance_of_its_draw() {
+    let model = PhysicsModel::paper();
+    let clean = build_case(0, Kind::Clean, 2, &model).expect("case");
+    let mut all = NoiseDraw {
+        arw_dph_rt_h: 2.5e-4,
+        student_t: false,
+        bias_instability_dph: 5e-4,
+        one_over_f: true,
+        gm_tau_s: (0..16)
+            .map(|k| 50.0 * 10f64.powf(4.0 * f64::from(k) / 15.0))
+            .collect(),
+        gm_sigma_dph: 0.0,
+        rrw_dph_per_rt_h: 5e-4,
+        quantum_arcsec: 0.3,
+        spikes: Vec::new(),
+    };
+    all.gm_sigma_dph = 1.5e-4;
+    let mut own = clean.conditions.noise.clone();
+    own.spikes.clear();
+    own.student_t = false;
+    for noise in [own, all] {
+        let sigma = noise.block_cov(3, 100, DT_S, 30);
+        let s = ensemble_moments(&noise, 4000);
+        for i in 0..3 {
+            let want = sigma[i * 3 + i];
+            assert!(
+                (s[i][i] / want - 1.0).abs() < 0.1,
+                "block {i}: {} vs {want} ({noise:?})",
+                s[i][i]
+            );
+            if i + 1 < 3 {
+                let c = sigma[i * 3 + i + 1];
+                assert!(
+                    (s[i][i + 1] - c).abs() < 0.1 * want,
+                    "blocks {i}, {}: {} vs {c}",
+                    i + 1,
+                    s[i][i + 1]
+                );
+            }
+        }
+    }
+    let t = NoiseDraw {
+        student_t: true,
+        gm_tau_s: vec![1e3],
+        gm_sigma_dph: 0.0,
+        rrw_dph_per_rt_h: 0.0,
+        quantum_arcsec: 0.0,
+        ..clean.conditions.noise.clone()
+    };
+    let x = t.generate(&vec![0.0; 2_000_000], None, DT_S, 9);
+    let var = x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64;
+    let want = t.white_sigma(DT_S).powi(2);
+    assert!((var / want - 1.0).abs() < 0.1, "t3: {var} vs {want}");
+}
+
+/// Every kind of case reaches the detectability drawn for it within 1e-6 (recomputed from
+/// its recording, its final noise and its hidden effect), D is linear in the amplitude
+/// of the effects that have one, and the truth label is the mechanism, `unexplained` for
+/// the two effects outside the library, `none` for a clean case.
+#[test]
+fn cases_reach_their_detectability() {
+    let model = PhysicsModel::paper();
+    let kinds = [
+        Kind::Library(Family::GradientLag),
+        Kind::Library(Family::SensorLag),
+        Kind::Library(Family::TempQuantization),
+        Kind::Library(Family::Heteroscedastic),
+        Kind::Step,
+        Kind::RateSquared,
+        Kind::Clean,
+    ];
+    for (id, kind) in kinds.into_iter().enumerate() {
+        let case = build_case(id, kind, 5, &model).expect("case");
+        let want = match kind {
+            Kind::Library(f) => Label::Mechanism(f.mechanism()),
+            Kind::Step | Kind::RateSquared => Label::Unexplained,
+            Kind::Clean => Label::None,
+        };
+        assert_eq!(case.hidden.label(), want, "{}", kind.name());
+        if kind == Kind::Clean {
+            assert_eq!(case.hidden, Hidden::None);
+            continue;
+        }
+        assert!((3.0..=10.0).contains(&case.target_d));
+        let prep = prepare(&case.recording).expect("prepares");
+        let tr = &case.trajectory;
+        let d = match hetero_d(&case.hidden, tr, &prep) {
+            Some(d) => d,
+            None => {
+                let metric = Metric::new(&prep, &model, &case.conditions.noise)
+                    .expect("metric")
+                    .expect("positive definite");
+                let bias = &case.conditions.bias;
+                let e =
+                    mean_effect(&case.hidden, tr, bias, &case.recording.temp_c).expect("effect");
+                let d = metric.d(&prep, &e);
+                if !matches!(
+                    kind,
+                    Kind::Library(Family::SensorLag | Family::TempQuantization)
+                ) {
+                    let e2 = mean_effect(&case.hidden.scaled(2.0), tr, bias, &[]).expect("effect");
+                    let d2 = metric.d(&prep, &e2);
+                    assert!(
+                        (d2 / d - 2.0).abs() < 1e-9,
+                        "{}: {d2} vs 2·{d}",
+                        kind.name()
+                    );
+                }
+                d
+            }
+        };
+        assert!(
+            (d / case.target_d - 1.0).abs() < 1e-6,
+            "{}: D {d} vs target {}",
+            kind.name(),
+            case.target_d
+        );
+        assert!((case.d / case.target_d - 1.0).abs() < 1e-6);
+    }
+}
+
+/// The two effects outside the library are labelled `unexplained`, the verdict that names
+/// structure without a library term; a clean case `none`.
+#[test]
+fn outside_effects_are_labelled_unexplained() {
+    let model = PhysicsModel::paper();
+    let plan = MismatchOptions::quick(1).plan();
+    for (id, kind) in plan.into_iter().filter(|(_, k)| k.outside()).take(2) {
+        let case = build_case(id, kind, 1, &model).expect("case");
+        assert!(matches!(
+            case.hidden,
+            Hidden::Step { .. } | Hidden::RateSquared { .. }
+        ));
+        assert_eq!(case.hidden.label(), Label::Unexplained, "{}", kind.name());
+    }
+    assert_eq!(Hidden::None.label(), Label::None);
+}
+
+/// Kinds read back from their names; the plan numbers families first, then the outside
+/// effects, then the clean cases, and `only` keeps the numbers.
+#[test]
+fn plan_and_names() {
+    for k in [Kind::Step, Kind::RateSquared, Kind::Clean] {
+        assert_eq!(Kind::from_name(k.name()), Some(k));
+    }
+    assert_eq!(
+        Kind::from_name("mode_hop"),
+        Some(Kind::Library(Family::ModeHop))
+    );
+    assert_eq!(Kind::from_name("nonsense"), None);
+    let mut o = MismatchOptions::quick(1);
+    assert_eq!(o.plan().len(), 2 * 10 + 2 * 2 + 8);
+    o.only = vec![Kind::RateSquared];
+    assert_eq!(
+        o.plan(),
+        vec![(22, Kind::RateSquared), (23, Kind::RateSquared)]
+    );
+}
+
+/// The report shows every section and the calibration figure is a PNG, on made-up results.
+#[test]
+fn report_and_figure() {
+    let r = |id: usize, kind: Kind, truth: Label, predicted: Label, p: f64| MismatchResult {
+        kind,
+        conditions: vec!["angle quantisation".into()],
+        result: CaseResult {
+            id,
+            profile: String::new(),
+            truth,
+            detectability: 4.0,
+            detectability_marginal: 0.0,
+            peak_over_sigma1: 0.0,
+            energy_in_span: 0.0,
+            predicted,
+            param_ok: None,
+            param_rel_err: None,
+            param: None,
+            iou: None,
+            gain_fraction: None,
+            seconds: 1.0,
+            best_delta_bic: (Label::None, 0.0, 0.0),
+            p_values: PValues {
+                best: p,
+                finding: None,
+                structure: p,
+                verdict: Some(p),
+                true_family_alone: None,
+            },
+            alpha: 0.1,
+        },
+    };
+    let results = vec![
+        r(0, Kind::Clean, Label::None, Label::None, 0.5),
+        r(1, Kind::Clean, Label::None, Label::Unexplained, 0.03),
+        r(2, Kind::Step, Label::Unexplained, Label::Unexplained, 0.0),
+        r(
+            3,
+            Kind::Library(Family::Aging),
+            Label::Mechanism(Family::Aging.mechanism()),
+            Label::None,
+            0.4,
+        ),
+    ];
+    let md = mismatch_report_markdown(&results);
+    for needle in [
+        "α = 10.0 %",
+        "false alarms on clean recordings",
+        "top-1, library families, D 3–5",
+        "outside-library effects named as a library mechanism",
+        "| 5 % | 50 % (1/2)",
+        "| angle quantisation | 1 / 0 of 2 (0) |",
+        "| hidden effects concealed",
+        "| step |",
+    ] {
+        assert!(md.contains(needle), "missing `{needle}` in\n{md}");
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let png = dir.path().join("calibration.png");
+    calibration_png(&results, &png).expect("draws");
+    let b = std::fs::read(&png).expect("reads");
+    assert_eq!(&b[..8], b"\x89PNG\r\n\x1a\n");
+}
