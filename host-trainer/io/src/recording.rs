@@ -222,42 +222,88 @@ impl Recording {
         Ok(rec)
     }
 
-    /// Plausibility of the units, for a warning (the data are still read): a temperature
-    /// column whose median is above 150 looks like Kelvin; a rate whose values all stay
-    /// within ±1e-3 looks like rad/s (an RLG's bias and the Earth rate are several °/h, i.e.
-    /// 1e-5 … 1e-4 rad/s); a median time step above 100 s or below 1 ms looks like another
-    /// time unit; gaps (steps over 1.5 × the median) are counted. Empty when all is plausible.
-    pub fn unit_warnings(&self) -> Vec<String> {
+    /// Columns whose values look like another unit than the file format's (seconds, °C,
+    /// °/h), each with the reason and the flag that converts it; empty when all is plausible.
+    /// A temperature column whose median is above 150 looks like Kelvin; a rate whose values
+    /// all stay within ±1e-3 looks like rad/s (an RLG's bias and the Earth rate are several
+    /// °/h, i.e. 1e-5 … 1e-4 rad/s, and the 1 s noise alone exceeds 1e-3 °/h); a median time
+    /// step above 100 s looks like milliseconds (1 Hz in ms steps by 1000), one below 10 µs
+    /// like another unit. A column whose unit the user gave is not second-guessed: the
+    /// caller skips it (`checked`).
+    pub fn unit_errors(&self, checked: UnitsGiven) -> Vec<String> {
         let mut out = Vec::new();
         let median = |v: &[f64]| {
-            let mut s = v.to_vec();
+            let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
             s.sort_by(f64::total_cmp);
             s.get(s.len() / 2).copied()
         };
-        for (name, col) in [
-            ("temp_c", Some(&self.temp_c)),
-            ("chamber_c", self.chamber_c.as_ref()),
-        ] {
-            if let Some(m) = col.and_then(|c| median(c)).filter(|m| *m > 150.0) {
-                out.push(format!(
-                    "{name}: median {m:.2} looks like Kelvin; the column must be °C (subtract 273.15)"
-                ));
+        if !checked.temp {
+            for (name, col) in [
+                ("temp_c", Some(&self.temp_c)),
+                ("chamber_c", self.chamber_c.as_ref()),
+            ] {
+                if let Some(m) = col.and_then(|c| median(c)).filter(|m| *m > 150.0) {
+                    out.push(format!(
+                        "{name}: median {m:.2} looks like kelvin, not °C: convert with \
+                         --temp-unit k (or --temp-unit c if the values are right)"
+                    ));
+                }
             }
         }
-        let peak = self.rate_dph.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-        if !self.rate_dph.is_empty() && peak < 1e-3 {
+        let peak = self
+            .rate_dph
+            .iter()
+            .filter(|v| v.is_finite())
+            .fold(0.0f64, |a, v| a.max(v.abs()));
+        if !checked.rate && !self.rate_dph.is_empty() && peak < 1e-3 {
             out.push(format!(
-                "rate_dph: every value within ±{peak:.1e}, which looks like rad/s; the column must be °/h (rad/s × 206 264.8 = 3600·180/π)"
+                "rate_dph: every value within ±{peak:.1e}, which looks like rad/s, not °/h: \
+                 convert with --rate-unit rad-s (or --rate-unit dph if the values are right)"
             ));
         }
         let steps: Vec<f64> = self.time_s.windows(2).map(|w| w[1] - w[0]).collect();
-        if let Some(step) = median(&steps) {
-            if !(1e-3..=100.0).contains(&step) {
+        if let (false, Some(step)) = (checked.time, median(&steps)) {
+            if step > 100.0 {
                 out.push(format!(
-                    "time_s: median step {step} s looks like another unit; the column must be seconds"
+                    "time_s: median step {step} looks like milliseconds, not seconds: convert \
+                     with --time-unit ms (or --time-unit s if the steps are right)"
+                ));
+            } else if step < 1e-5 {
+                out.push(format!(
+                    "time_s: median step {step} s is below 10 µs: convert with --time-unit \
+                     ms|us, or give --time-unit s if the steps are right"
                 ));
             }
-            let gaps = steps.iter().filter(|s| **s > 1.5 * step).count();
+        }
+        out
+    }
+
+    /// Converts the columns from the units `u` the file was written in to seconds, °C and
+    /// °/h.
+    pub fn convert_units(&mut self, u: Units) {
+        let scale = |v: &mut Vec<f64>, k: f64, add: f64| {
+            if k != 1.0 || add != 0.0 {
+                v.iter_mut().for_each(|x| *x = *x * k + add);
+            }
+        };
+        scale(&mut self.time_s, u.time.to_seconds(), 0.0);
+        let (k, add) = u.temp.to_celsius();
+        scale(&mut self.temp_c, k, add);
+        if let Some(c) = self.chamber_c.as_mut() {
+            scale(c, k, add);
+        }
+        scale(&mut self.rate_dph, u.rate.to_dph(), 0.0);
+    }
+
+    /// Warnings that do not stop a command: gaps (steps over 1.5 × the median). Empty when
+    /// there are none.
+    pub fn unit_warnings(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        let mut steps: Vec<f64> = self.time_s.windows(2).map(|w| w[1] - w[0]).collect();
+        let all = steps.clone();
+        steps.sort_by(f64::total_cmp);
+        if let Some(&step) = steps.get(steps.len() / 2) {
+            let gaps = all.iter().filter(|s| **s > 1.5 * step).count();
             if gaps > 0 {
                 out.push(format!(
                     "time_s: {gaps} gap(s) longer than 1.5 sample periods; features bridge them as the board bridges missing samples; held-out 100 s stabilities never average across a gap (metrics::gapless_block_means); the diagnosis averages consecutive samples"
@@ -356,38 +402,144 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), RecordingError> {
     })
 }
 
+/// Which columns' units the user stated (those are not second-guessed by
+/// [`Recording::unit_errors`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct UnitsGiven {
+    /// The time unit was given.
+    pub time: bool,
+    /// The temperature unit was given.
+    pub temp: bool,
+    /// The rate unit was given.
+    pub rate: bool,
+}
+
+/// The units a recording's columns were written in ([`Recording::convert_units`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Units {
+    /// Time column.
+    pub time: TimeUnit,
+    /// Temperature columns.
+    pub temp: TempUnit,
+    /// Rate column.
+    pub rate: RateUnit,
+}
+
+/// Unit of the time column.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TimeUnit {
+    /// Seconds (the format's).
+    #[default]
+    S,
+    /// Milliseconds.
+    Ms,
+    /// Microseconds.
+    Us,
+}
+
+impl TimeUnit {
+    fn to_seconds(self) -> f64 {
+        match self {
+            TimeUnit::S => 1.0,
+            TimeUnit::Ms => 1e-3,
+            TimeUnit::Us => 1e-6,
+        }
+    }
+}
+
+/// Unit of the temperature columns.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TempUnit {
+    /// Degrees Celsius (the format's).
+    #[default]
+    C,
+    /// Kelvin.
+    K,
+}
+
+impl TempUnit {
+    /// (factor, offset) to °C.
+    fn to_celsius(self) -> (f64, f64) {
+        match self {
+            TempUnit::C => (1.0, 0.0),
+            TempUnit::K => (1.0, -273.15),
+        }
+    }
+}
+
+/// Unit of the rate column.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum RateUnit {
+    /// Degrees per hour (the format's).
+    #[default]
+    Dph,
+    /// Radians per second.
+    RadS,
+    /// Degrees per second.
+    DegS,
+}
+
+impl RateUnit {
+    fn to_dph(self) -> f64 {
+        match self {
+            RateUnit::Dph => 1.0,
+            // rad/s → °/h: × 180/π × 3600.
+            RateUnit::RadS => 3600.0 * 180.0 / std::f64::consts::PI,
+            RateUnit::DegS => 3600.0,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// Kelvin temperatures, a rate in rad/s, milliseconds and a gap each give a warning that
-    /// names the column; plausible data give none.
+    /// Kelvin temperatures, a rate in rad/s and millisecond time stamps are each refused
+    /// with the flag that converts them; converted, the same recording passes; a unit the
+    /// user gave is not second-guessed; a gap is a warning. Plausible data give nothing.
     #[test]
-    fn implausible_units_are_warned_about() {
+    fn implausible_units_are_refused_with_the_flag() {
         let ok = Recording {
             time_s: vec![0.0, 1.0, 2.0, 3.0],
             rate_dph: vec![-7.1, -7.11, -7.09, -7.1],
             temp_c: vec![25.0, 25.1, 25.2, 25.3],
             ..Recording::default()
         };
+        assert!(ok.unit_errors(UnitsGiven::default()).is_empty());
         assert!(ok.unit_warnings().is_empty(), "{:?}", ok.unit_warnings());
-        let bad = Recording {
+        let mut bad = Recording {
             time_s: vec![0.0, 1000.0, 2000.0, 5000.0],
             rate_dph: vec![-3.4e-5, -3.5e-5, -3.4e-5, -3.3e-5],
-            temp_c: vec![298.15, 298.2, 298.3, 298.4],
+            temp_c: vec![298.15, 298.25, 298.35, 298.45],
             ..Recording::default()
         };
-        let w = bad.unit_warnings().join("\n");
+        let e = bad.unit_errors(UnitsGiven::default()).join("\n");
         for want in [
-            "temp_c",
-            "Kelvin",
-            "rate_dph",
+            "temp_c: median 298",
+            "--temp-unit k",
             "rad/s",
-            "time_s: median step",
-            "1 gap",
+            "--rate-unit rad-s",
+            "milliseconds",
+            "--time-unit ms",
         ] {
-            assert!(w.contains(want), "{want} missing in:\n{w}");
+            assert!(e.contains(want), "{want} missing in:\n{e}");
         }
+        let given = UnitsGiven {
+            time: true,
+            temp: true,
+            rate: true,
+        };
+        assert!(bad.unit_errors(given).is_empty());
+        bad.convert_units(Units {
+            time: TimeUnit::Ms,
+            temp: TempUnit::K,
+            rate: RateUnit::RadS,
+        });
+        assert!(bad.unit_errors(UnitsGiven::default()).is_empty());
+        assert_eq!(bad.time_s, vec![0.0, 1.0, 2.0, 5.0]);
+        assert!((bad.temp_c[0] - 25.0).abs() < 1e-9, "{:?}", bad.temp_c);
+        assert!((bad.rate_dph[0] + 7.013).abs() < 1e-3, "{:?}", bad.rate_dph);
+        assert!(bad.unit_warnings().join("").contains("1 gap"));
     }
 
     fn parse(text: &str) -> Result<Recording, RecordingError> {

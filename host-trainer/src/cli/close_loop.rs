@@ -11,7 +11,6 @@ use rlg_closeloop::{
     Protocol,
 };
 use rlg_diagnose::{diagnose, DiagnoseError, Diagnosis, Options, PhysicsModel};
-use rlg_io::recording::Recording;
 use rlg_train::model::Provenance;
 
 /// Arguments of `rlg close-loop`.
@@ -20,6 +19,9 @@ pub struct CloseLoopArgs {
     /// Calibration recording (CSV).
     #[arg(long)]
     pub recording: PathBuf,
+    /// Units of the recordings' columns.
+    #[command(flatten)]
+    pub units: super::UnitArgs,
     /// A later recording of the same gyro to judge the models on: the diagnosis and the
     /// training then use all of `--recording`. Without it, the later cycles of `--recording`
     /// are held out (see `--train-to-s`).
@@ -53,14 +55,9 @@ fn read_diagnosis(p: &PathBuf) -> anyhow::Result<Diagnosis> {
 
 /// Runs `rlg close-loop`.
 pub fn run(args: &CloseLoopArgs, command_line: &str) -> anyhow::Result<()> {
-    let rec = Recording::read_csv(&args.recording)?;
-    super::warn_units(&args.recording, &rec);
+    let rec = super::read_recording(&args.recording, &args.units)?;
     let test = match &args.test {
-        Some(p) => {
-            let t = Recording::read_csv(p)?;
-            super::warn_units(p, &t);
-            Some(t)
-        }
+        Some(p) => Some(super::read_recording(p, &args.units)?),
         None => None,
     };
     let end = match (&test, args.train_to_s) {

@@ -5,7 +5,6 @@ use std::path::PathBuf;
 use anyhow::Context as _;
 
 use rlg_diagnose::{diagnose, Options, PhysicsModel};
-use rlg_io::recording::Recording;
 
 /// Arguments of `rlg diagnose`.
 #[derive(Debug, clap::Args)]
@@ -13,6 +12,9 @@ pub struct DiagnoseArgs {
     /// Recording (CSV).
     #[arg(long)]
     pub recording: PathBuf,
+    /// Units of the recording's columns.
+    #[command(flatten)]
+    pub units: super::UnitArgs,
     /// Physics model (TOML `[[terms]]`); default: the paper's model (models/paper.toml).
     #[arg(long)]
     pub model: Option<PathBuf>,
@@ -45,8 +47,15 @@ pub fn run(args: &DiagnoseArgs) -> anyhow::Result<()> {
         args.bootstrap,
         args.alpha
     );
-    let rec = Recording::read_csv(&args.recording)?;
-    super::warn_units(&args.recording, &rec);
+    // Output paths are checked before the analysis, which takes seconds to minutes.
+    if let Some(p) = &args.json {
+        super::check_output_file(p, "--json")?;
+    }
+    if let Some(dir) = &args.plots {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("--plots {}: cannot create the directory", dir.display()))?;
+    }
+    let rec = super::read_recording(&args.recording, &args.units)?;
     let model = match &args.model {
         Some(p) => {
             let text =

@@ -83,13 +83,131 @@ impl Cli {
     }
 }
 
-/// Prints the recording's unit warnings ([`rlg_io::recording::Recording::unit_warnings`]) on
+/// Units of a recording's columns when they are not the format's (seconds, °C, °/h). A
+/// column whose unit is not given is checked for plausibility and refused when it looks like
+/// another unit ([`rlg_io::recording::Recording::unit_errors`]); a unit given is trusted.
+#[derive(Clone, Debug, Default, clap::Args)]
+pub struct UnitArgs {
+    /// Unit of the time column [default: s, checked].
+    #[arg(long, value_enum, value_name = "UNIT")]
+    pub time_unit: Option<TimeUnitArg>,
+    /// Unit of the temperature columns [default: c, checked].
+    #[arg(long, value_enum, value_name = "UNIT")]
+    pub temp_unit: Option<TempUnitArg>,
+    /// Unit of the rate column [default: dph, checked].
+    #[arg(long, value_enum, value_name = "UNIT")]
+    pub rate_unit: Option<RateUnitArg>,
+}
+
+/// `--time-unit` values.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum TimeUnitArg {
+    /// Seconds.
+    S,
+    /// Milliseconds.
+    Ms,
+    /// Microseconds.
+    Us,
+}
+
+/// `--temp-unit` values.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum TempUnitArg {
+    /// Degrees Celsius.
+    C,
+    /// Kelvin.
+    K,
+}
+
+/// `--rate-unit` values.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum RateUnitArg {
+    /// Degrees per hour.
+    Dph,
+    /// Radians per second.
+    RadS,
+    /// Degrees per second.
+    DegS,
+}
+
+impl UnitArgs {
+    fn units(&self) -> Units {
+        Units {
+            time: match self.time_unit {
+                None | Some(TimeUnitArg::S) => TimeUnit::S,
+                Some(TimeUnitArg::Ms) => TimeUnit::Ms,
+                Some(TimeUnitArg::Us) => TimeUnit::Us,
+            },
+            temp: match self.temp_unit {
+                None | Some(TempUnitArg::C) => TempUnit::C,
+                Some(TempUnitArg::K) => TempUnit::K,
+            },
+            rate: match self.rate_unit {
+                None | Some(RateUnitArg::Dph) => RateUnit::Dph,
+                Some(RateUnitArg::RadS) => RateUnit::RadS,
+                Some(RateUnitArg::DegS) => RateUnit::DegS,
+            },
+        }
+    }
+
+    fn given(&self) -> UnitsGiven {
+        UnitsGiven {
+            time: self.time_unit.is_some(),
+            temp: self.temp_unit.is_some(),
+            rate: self.rate_unit.is_some(),
+        }
+    }
+}
+
+/// Reads a recording, converts it from the units given and refuses implausible ones (the
+/// reasons and the flags that convert them in one error); prints the warnings that remain.
+pub fn read_recording(
+    path: &std::path::Path,
+    units: &UnitArgs,
+) -> anyhow::Result<rlg_io::recording::Recording> {
+    let mut rec = rlg_io::recording::Recording::read_csv(path)?;
+    rec.convert_units(units.units());
+    let errors = rec.unit_errors(units.given());
+    anyhow::ensure!(
+        errors.is_empty(),
+        "{}: {}",
+        path.display(),
+        errors.join("; ")
+    );
+    warn_units(path, &rec);
+    Ok(rec)
+}
+
+/// Checks before the work that `path` can be written as a file: not a directory, its
+/// directory exists. The write itself is atomic (a temporary beside it, then a rename).
+pub fn check_output_file(path: &std::path::Path, flag: &str) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        !path.is_dir(),
+        "{flag} {}: is a directory; give a file name",
+        path.display()
+    );
+    let parent = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(std::path::Path::new("."));
+    anyhow::ensure!(
+        parent.is_dir(),
+        "{flag} {}: directory {} does not exist",
+        path.display(),
+        parent.display()
+    );
+    Ok(())
+}
+
+/// Prints the recording's warnings ([`rlg_io::recording::Recording::unit_warnings`]) on
 /// stderr, naming the file.
 pub fn warn_units(path: &std::path::Path, rec: &rlg_io::recording::Recording) {
     for w in rec.unit_warnings() {
         eprintln!("warning: {}: {w}", path.display());
     }
 }
+
+use rlg_io::recording::{RateUnit, TempUnit, TimeUnit, Units, UnitsGiven};
 
 /// The command line as a reproducible string: `rlg` followed by the arguments, each quoted
 /// when it holds a space (the program's own path is not recorded).

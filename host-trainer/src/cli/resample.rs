@@ -3,7 +3,6 @@
 
 use std::path::PathBuf;
 
-use rlg_io::recording::Recording;
 use rlg_io::resample::{bin_means, burst_means};
 
 /// Arguments of `rlg resample`.
@@ -12,6 +11,9 @@ pub struct ResampleArgs {
     /// Input recording (CSV).
     #[arg(long)]
     pub recording: PathBuf,
+    /// Units of the input's columns (the output is in seconds, °C and °/h).
+    #[command(flatten)]
+    pub units: super::UnitArgs,
     /// Output recording (CSV, written atomically).
     #[arg(long)]
     pub out: PathBuf,
@@ -26,7 +28,7 @@ pub struct ResampleArgs {
 
 /// Runs `rlg resample`.
 pub fn run(a: &ResampleArgs) -> anyhow::Result<()> {
-    let rec = Recording::read_csv(&a.recording)?;
+    let rec = super::read_recording(&a.recording, &a.units)?;
     let (out, rep) = match a.bursts {
         Some(f) => burst_means(&rec, f)?,
         None => bin_means(&rec, a.period_s)?,
@@ -50,6 +52,5 @@ pub fn run(a: &ResampleArgs) -> anyhow::Result<()> {
             format!("; dropped columns: {}", rep.dropped_columns.join(", "))
         }
     );
-    super::warn_units(&a.out, &out);
     Ok(())
 }

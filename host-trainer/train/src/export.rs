@@ -427,6 +427,99 @@ pub fn write_table(m: &ModelFile, command: &str, out: &Path) -> Result<(), Expor
     Ok(())
 }
 
+/// The language of an exported board table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// A Rust const table for `compensator-core` (`.rs`).
+    Rust,
+    /// A C header with the same f32 numbers (`.h`, [`crate::export_c`]).
+    C,
+}
+
+impl Format {
+    /// The format a file name implies: `.rs` Rust, `.h` C, else none.
+    pub fn of_path(path: &Path) -> Option<Format> {
+        match path.extension().and_then(|e| e.to_str()) {
+            Some("rs") => Some(Format::Rust),
+            Some("h") => Some(Format::C),
+            _ => None,
+        }
+    }
+
+    /// The format to write `out` in: the one given, or the one its name implies; an error
+    /// when they disagree or when neither says.
+    pub fn resolve(given: Option<Format>, out: &Path) -> Result<Format, String> {
+        match (given, Format::of_path(out)) {
+            (Some(g), Some(p)) if g != p => Err(format!(
+                "--format {} but {} is a {} file name; give the name a .{} extension or drop \
+                 --format",
+                g.name(),
+                out.display(),
+                p.language(),
+                g.extension()
+            )),
+            (Some(f), _) | (None, Some(f)) => Ok(f),
+            (None, None) => Err(format!(
+                "cannot tell the format from {}: name it .rs (Rust) or .h (C), or give \
+                 --format rust|c",
+                out.display()
+            )),
+        }
+    }
+
+    /// `rust` or `c`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::Rust => "rust",
+            Format::C => "c",
+        }
+    }
+
+    fn language(self) -> &'static str {
+        match self {
+            Format::Rust => "Rust",
+            Format::C => "C",
+        }
+    }
+
+    fn extension(self) -> &'static str {
+        match self {
+            Format::Rust => "rs",
+            Format::C => "h",
+        }
+    }
+}
+
+/// The C header of `m` ([`crate::export_c::c_header`]: the f32 numbers of the Rust table),
+/// after the same f32 precision check; `what` is the provenance line of its comment.
+pub fn c_header_source(m: &ModelFile, what: &str) -> Result<String, ExportError> {
+    use crate::export_c::c_header;
+    check_precision(m)?;
+    match m.lssvm.dim() {
+        1 => c_header(&to_f32::<1>(m)?, what),
+        2 => c_header(&to_f32::<2>(m)?, what),
+        3 => c_header(&to_f32::<3>(m)?, what),
+        4 => c_header(&to_f32::<4>(m)?, what),
+        5 => c_header(&to_f32::<5>(m)?, what),
+        got => Err(ExportError::Dimension { got, want: 5 }),
+    }
+}
+
+/// Writes the board table of `m` to `out` atomically, in `format`.
+pub fn write_board_table(
+    m: &ModelFile,
+    command: &str,
+    out: &Path,
+    format: Format,
+) -> Result<(), ExportError> {
+    let text = match format {
+        Format::Rust => table_source(m, command)?,
+        Format::C => c_header_source(m, command)?,
+    };
+    model::write_atomic(out, text.as_bytes())?;
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -518,5 +611,38 @@ mod tests {
             assert!(f64::from(f32_outward(v, false, "x").unwrap()) >= v);
         }
         assert!(f32_of(1e300, "x").is_err());
+    }
+
+    /// The format comes from --format or the file name; a disagreement or an unknown name
+    /// is an error naming the fix.
+    #[test]
+    fn format_from_flag_or_extension() {
+        let p = |s: &str| std::path::PathBuf::from(s);
+        assert_eq!(Format::resolve(None, &p("m_table.rs")), Ok(Format::Rust));
+        assert_eq!(Format::resolve(None, &p("m_table.h")), Ok(Format::C));
+        assert_eq!(
+            Format::resolve(Some(Format::C), &p("out.inc")),
+            Ok(Format::C)
+        );
+        let e = Format::resolve(Some(Format::Rust), &p("m_table.h")).unwrap_err();
+        assert!(
+            e.contains("--format rust") && e.contains("C file name"),
+            "{e}"
+        );
+        let e = Format::resolve(None, &p("m_table.txt")).unwrap_err();
+        assert!(e.contains("--format rust|c"), "{e}");
+    }
+
+    /// The C header of a model holds its support vectors and is refused, like the Rust
+    /// table, when f32 cannot evaluate it.
+    #[test]
+    fn c_header_of_a_model_file() {
+        let good = model(1.0, 100.0);
+        let h = c_header_source(&good, "t").unwrap();
+        assert!(
+            h.contains(&format!("#define RLG_N {}", good.lssvm.support.len())),
+            "{h}"
+        );
+        assert!(c_header_source(&model(5.0, 1e9), "t").is_err());
     }
 }
