@@ -155,7 +155,9 @@ mod tests {
         // The C header from the extension; a flag that contradicts it writes nothing.
         let h = dir.path().join("m_table.h");
         export::run(&args(&h, None), "rlg export").unwrap();
-        assert!(std::fs::read_to_string(&h).unwrap().contains("#define RLG_N 9"));
+        assert!(std::fs::read_to_string(&h)
+            .unwrap()
+            .contains("#define RLG_N 9"));
         let h2 = dir.path().join("other.h");
         let e = export::run(&args(&h2, Some(export::FormatArg::Rust)), "rlg export").unwrap_err();
         assert!(e.to_string().contains("--format rust"), "{e}");
