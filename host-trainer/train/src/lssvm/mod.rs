@@ -91,7 +91,13 @@ pub enum LssvmError {
     #[error("the solution of Eq. (9) is not finite (ill-conditioned system)")]
     Singular,
     /// Too many samples for a method that forms the n×n kernel matrix.
-    #[error("{samples} samples is more than the {max} an exact solve handles (an n×n matrix); use the fixed-size method")]
+    #[error(
+        "{samples} samples is more than the {max} an exact solve holds (its n×n kernel matrix \
+         would take {:.1} GB): average blocks of samples (`rlg train --block {}` or more) or \
+         train a reduced model with a support-vector budget (the fixed-size method)",
+        12.0 * (*samples as f64).powi(2) / 1e9,
+        samples.div_ceil(*max)
+    )]
     TooLarge {
         /// Samples given.
         samples: usize,

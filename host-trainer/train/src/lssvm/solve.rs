@@ -35,6 +35,10 @@ pub struct Solution {
 }
 
 /// Checks shapes, finiteness and hyper-parameters; returns the input dimension.
+/// Largest training set an exact solve accepts. The solve holds the packed kernel, then its
+/// square f64 and f32 copies: about 12·n² bytes at its peak, 1.7 GB at this size.
+pub const MAX_EXACT_SAMPLES: usize = 12_000;
+
 fn validate(z: &[Vec<f64>], y: &[f64], sigma: f64, c: f64) -> Result<usize, LssvmError> {
     if !(sigma > 0.0 && sigma.is_finite()) {
         return Err(LssvmError::HyperParameter {
@@ -55,6 +59,13 @@ fn validate(z: &[Vec<f64>], y: &[f64], sigma: f64, c: f64) -> Result<usize, Lssv
         return Err(LssvmError::Length {
             inputs: z.len(),
             targets: y.len(),
+        });
+    }
+    // Refused before anything of size n² is allocated.
+    if z.len() > MAX_EXACT_SAMPLES {
+        return Err(LssvmError::TooLarge {
+            samples: z.len(),
+            max: MAX_EXACT_SAMPLES,
         });
     }
     let dim = z[0].len();
@@ -385,6 +396,29 @@ mod tests {
 
     fn rel_err(a: f64, b: f64, scale: f64) -> f64 {
         (a - b).abs() / scale
+    }
+
+    /// A training set beyond the exact solve's size is refused before the kernel matrix is
+    /// formed (93 600 samples would take 105 GB), with the block size that would fit.
+    #[test]
+    fn too_many_samples_are_refused_before_allocating() {
+        let n = 93_600;
+        let z: Vec<Vec<f64>> = (0..n).map(|i| vec![i as f64 / n as f64]).collect();
+        let y = vec![0.0; n];
+        let e = solve(&z, &y, 1.0, 10.0).unwrap_err();
+        assert!(
+            matches!(
+                e,
+                LssvmError::TooLarge {
+                    samples: 93_600,
+                    max: MAX_EXACT_SAMPLES
+                }
+            ),
+            "{e:?}"
+        );
+        let m = e.to_string();
+        assert!(m.contains("--block 8") && m.contains("105.1 GB"), "{m}");
+        assert!(loo_residuals(&z, &y, 1.0, 10.0).is_err());
     }
 
     /// The partially linear solve equals the full bordered system assembled as written
