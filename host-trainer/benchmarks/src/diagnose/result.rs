@@ -3,6 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::label::Label;
+use rlg_diagnose::Diagnosis;
 
 /// The scored outcome of one recording.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -68,7 +69,40 @@ pub struct PValues {
     pub true_family_alone: Option<f64>,
 }
 
+impl PValues {
+    /// The p-values of a diagnosis (`true_family_alone` is the scorer's, left None).
+    pub fn of(d: &Diagnosis) -> Self {
+        PValues {
+            best: d.evidence.candidates.first().map_or(1.0, |c| c.p_value),
+            finding: d.findings.first().and_then(|f| {
+                d.evidence
+                    .candidates
+                    .iter()
+                    .find(|c| c.mechanism == f.mechanism)
+                    .map(|c| c.p_value)
+            }),
+            structure: d.evidence.structure_p_value,
+            verdict: Some(d.evidence.p_value),
+            true_family_alone: None,
+        }
+    }
+}
+
 impl CaseResult {
+    /// The best candidate of a diagnosis, its ΔBIC and the threshold it was compared with.
+    pub fn best_of(d: &Diagnosis) -> (Label, f64, f64) {
+        d.evidence
+            .candidates
+            .first()
+            .map_or((Label::None, 0.0, 0.0), |c| {
+                (
+                    Label::Mechanism(c.mechanism),
+                    c.delta_bic,
+                    d.evidence.delta_bic_threshold,
+                )
+            })
+    }
+
     /// The verdict the diagnosis would give at a smaller false-alarm probability `alpha`
     /// (for `alpha` ≥ the run's α, the run's verdict). Exact up to the bootstrap's
     /// resolution: candidates are significant in the order of their ΔBIC, so at a smaller α

@@ -50,30 +50,8 @@ pub(super) fn score(
         iou: None,
         gain_fraction: None,
         seconds,
-        best_delta_bic: d
-            .evidence
-            .candidates
-            .first()
-            .map_or((Label::None, 0.0, 0.0), |c| {
-                (
-                    Label::Mechanism(c.mechanism),
-                    c.delta_bic,
-                    d.evidence.delta_bic_threshold,
-                )
-            }),
-        p_values: PValues {
-            best: d.evidence.candidates.first().map_or(1.0, |c| c.p_value),
-            finding: d.findings.first().and_then(|f| {
-                d.evidence
-                    .candidates
-                    .iter()
-                    .find(|c| c.mechanism == f.mechanism)
-                    .map(|c| c.p_value)
-            }),
-            structure: d.evidence.structure_p_value,
-            verdict: Some(d.evidence.p_value),
-            true_family_alone: None,
-        },
+        best_delta_bic: CaseResult::best_of(d),
+        p_values: PValues::of(d),
         alpha: 0.0,
     };
     let Some(h) = hidden else { return Ok(r) };

@@ -3,43 +3,17 @@
 //! non-stationary), with the diagnosis' own baseline design.
 
 use rlg_diagnose::linalg::{dot, Basis};
+use rlg_diagnose::noise::GlsWhitener;
 use rlg_diagnose::prepare::{baseline_columns, estimate_rate, model_drive, PhysicsModel, Prepared};
 use rlg_diagnose::DiagnoseError;
 use rlg_physics::{contribution, Term};
 
 use super::noise::NoiseDraw;
 
-/// x ↦ L⁻¹x with Σ = LLᵀ, for a dense covariance.
-struct DenseWhitener {
-    l: faer::Mat<f64>,
-}
-
-impl DenseWhitener {
-    /// The Cholesky factor of the row-major n×n `cov`; None when it is not positive definite.
-    fn new(cov: &[f64], n: usize) -> Option<Self> {
-        let sigma = faer::Mat::from_fn(n, n, |i, j| cov[i * n + j]);
-        let llt = sigma.llt(faer::Side::Lower).ok()?;
-        Some(Self {
-            l: llt.L().to_owned(),
-        })
-    }
-
-    fn whiten(&self, x: &[f64]) -> Vec<f64> {
-        let n = self.l.nrows();
-        let mut v = faer::Mat::from_fn(n, 1, |i, _| x[i]);
-        faer::linalg::triangular_solve::solve_lower_triangular_in_place(
-            self.l.as_ref(),
-            v.as_mut(),
-            faer::Par::Seq,
-        );
-        (0..n).map(|i| v[(i, 0)]).collect()
-    }
-}
-
 /// The metric of one recording and noise: the whitened baseline design, and the plain one
 /// for the marginal figures.
 pub(super) struct Metric {
-    white: DenseWhitener,
+    white: GlsWhitener,
     basis: Basis,
     plain: Basis,
     /// Mean variance of a 100 s mean, (°/h)².
@@ -57,7 +31,8 @@ impl Metric {
         let nb = prep.nb();
         let cov = noise.block_cov(nb, prep.block, prep.dt_s, prep.range.start);
         let var100 = (0..nb).map(|i| cov[i * nb + i]).sum::<f64>() / nb.max(1) as f64;
-        let Some(white) = DenseWhitener::new(&cov, nb) else {
+        let Some(white) = GlsWhitener::from_cov(faer::Mat::from_fn(nb, nb, |i, j| cov[i * nb + j]))
+        else {
             return Ok(None);
         };
         let cols: Vec<Vec<f64>> = baseline_columns(model, &model_drive(model, prep)?)
