@@ -1,6 +1,7 @@
 //! Figures of merit of a rate series, as a gyro test lab reports them.
 
 pub mod allan;
+pub mod allan_edf;
 pub mod stability;
 
 pub use stability::{
