@@ -5,15 +5,18 @@
 //! units. A term plays one of three [`Role`]s: it adds to the bias (°/h), it transforms the
 //! temperature-sensor reading (°C), or it scales the white-noise σ. Stateful terms (lags, play
 //! operator, relay) run as a [`TermStep`]; [`contribution`] runs one over whole series.
+//! [`term_reference`] documents every kind for the users of model files.
 
 pub mod hysteresis;
 pub mod mechanism;
+pub mod reference;
 
 use compensator_core::physics::decay;
 use serde::{Deserialize, Serialize};
 
 pub use hysteresis::{Play, Relay};
 pub use mechanism::{Mechanism, UnknownMechanism};
+pub use reference::{term_reference, term_reference_markdown, ParamDoc, TermDoc};
 
 /// The first-order lag of the board's features, in f64 (one definition, generic over the
 /// float type, in `compensator_core::physics`).

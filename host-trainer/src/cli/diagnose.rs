@@ -15,7 +15,8 @@ pub struct DiagnoseArgs {
     /// Units of the recording's columns.
     #[command(flatten)]
     pub units: super::UnitArgs,
-    /// Physics model (TOML `[[terms]]`); default: the paper's model (models/paper.toml).
+    /// Physics model (TOML `[[terms]]`, or a scenario file whose terms are taken; `rlg terms`
+    /// lists the kinds); default: the paper's model (models/paper.toml).
     #[arg(long)]
     pub model: Option<PathBuf>,
     /// Write the machine-readable result here (JSON).
@@ -57,11 +58,7 @@ pub fn run(args: &DiagnoseArgs) -> anyhow::Result<()> {
     }
     let rec = super::read_recording(&args.recording, &args.units)?;
     let model = match &args.model {
-        Some(p) => {
-            let text =
-                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
-            PhysicsModel::from_toml(&text, &p.display().to_string())?
-        }
+        Some(p) => PhysicsModel::read(p)?,
         None => PhysicsModel::paper(),
     };
     let opts = Options {
