@@ -6,7 +6,13 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::process::Command;
 
-const PRODUCT: [&str; 4] = ["rlg-io", "rlg-physics", "rlg-train", "rlg-eval"];
+const PRODUCT: [&str; 5] = [
+    "rlg-io",
+    "rlg-physics",
+    "rlg-train",
+    "rlg-eval",
+    "rlg-calibrate",
+];
 const LAB: [&str; 5] = [
     "rlg-simulate",
     "rlg-diagnose",

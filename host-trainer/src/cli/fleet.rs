@@ -1,67 +1,108 @@
-//! `rlg train-fleet`: train every recording of a folder in parallel, one model and one table
-//! each, and print a summary.
+//! `rlg train-fleet`: `rlg calibrate` on every recording of a folder in parallel, each gyro
+//! tuned on its own data, with a summary and pass / fail against the limits given.
 
 use std::path::PathBuf;
 
+use anyhow::Context;
 use clap::Args;
 
-use rlg_repro::pipeline;
-use rlg_train::fleet::{self, FleetOptions};
-use rlg_train::lssvm::sparse::{Reduction, DEFAULT_BUDGET};
+use rlg_calibrate::fleet::{self, Limits};
+use rlg_calibrate::Options;
+use rlg_io::progress::progress;
 
 /// Arguments of `rlg train-fleet`.
 #[derive(Debug, Args)]
 pub struct TrainFleetArgs {
-    /// Folder of recordings (`*.csv`: time_s, rate_dph, temp_c), one per gyro or axis.
+    /// Folder of recordings (`*.csv`: time_s, rate_dph, temp_c at 1 Hz), one per gyro or axis.
     #[arg(long, value_name = "DIR")]
     pub dir: PathBuf,
-    /// Output folder: `<stem>.json` and `<stem>_table.rs` per recording.
+    /// Output folder: one calibration folder per recording (`<stem>/`: report, model,
+    /// tables) and `summary.csv`, `summary.md`.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// Gaussian kernel width σ, standardised units.
-    #[arg(long, default_value_t = pipeline::SIGMA)]
-    pub sigma: f64,
-    /// Regularisation c.
-    #[arg(long, default_value_t = pipeline::C)]
-    pub c: f64,
-    /// Average over blocks of N samples (1: raw 1 Hz).
-    #[arg(long, value_name = "N", default_value_t = 1)]
-    pub block: usize,
-    /// Train on samples up to this time, s.
+    /// Units of the recordings' columns.
+    #[command(flatten)]
+    pub units: super::UnitArgs,
+    /// Support vectors of each board table.
+    #[arg(long, value_name = "M", default_value_t = rlg_train::protocol::SUPPORT_VECTORS as u64,
+          value_parser = clap::value_parser!(u64).range(1..=rlg_calibrate::MAX_BUDGET as u64))]
+    pub budget: u64,
+    /// Window of the bias stability, samples at 1 Hz.
+    #[arg(long, value_name = "S", default_value_t = 100,
+          value_parser = clap::value_parser!(u64).range(2..=100_000))]
+    pub window: u64,
+    /// Use samples from this time on, s.
+    #[arg(long, value_name = "S")]
+    pub from_s: Option<f64>,
+    /// Use samples up to this time, s.
     #[arg(long, value_name = "S")]
     pub to_s: Option<f64>,
-    /// Time constant of the dT/dt estimator, s.
-    #[arg(long, value_name = "S", default_value_t = pipeline::RATE_TAU_S)]
-    pub rate_tau_s: f64,
-    /// Largest number of support vectors (the board table's capacity); 0 trains the exact
-    /// model with every sample a support vector.
-    #[arg(long, value_name = "M", default_value_t = DEFAULT_BUDGET)]
-    pub budget: usize,
+    /// Fail a gyro whose board table's held-out stability exceeds this, °/h.
+    #[arg(long, value_name = "DPH")]
+    pub max_b100_dph: Option<f64>,
+    /// Fail a gyro whose board table improves the held-out stability by less than this factor.
+    #[arg(long, value_name = "FACTOR")]
+    pub min_improvement: Option<f64>,
     /// Threads (default: all cores).
-    #[arg(long)]
+    #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
 }
 
 /// Runs `rlg train-fleet`.
 pub fn run(a: &TrainFleetArgs, command_line: &str) -> anyhow::Result<()> {
+    for (flag, v) in [
+        ("--max-b100-dph", a.max_b100_dph),
+        ("--min-improvement", a.min_improvement),
+    ] {
+        if let Some(v) = v {
+            anyhow::ensure!(v > 0.0 && v.is_finite(), "{flag} {v}: must be positive");
+        }
+    }
     if let Some(t) = a.threads {
+        anyhow::ensure!(t >= 1, "--threads 0: give at least 1");
         rayon::ThreadPoolBuilder::new()
             .num_threads(t)
             .build_global()?;
     }
-    let opts = FleetOptions {
-        sigma: a.sigma,
-        c: a.c,
-        block: a.block,
+    let opts = Options {
+        budget: a.budget as usize,
+        window: a.window as usize,
+        from_s: a.from_s,
         to_s: a.to_s,
-        rate_tau_s: a.rate_tau_s,
-        reduction: (a.budget > 0).then_some((Reduction::FIXED_SIZE, a.budget)),
-        command: command_line.to_string(),
+        ..Options::default()
+    };
+    let limits = Limits {
+        max_stability_dph: a.max_b100_dph,
+        min_improvement: a.min_improvement,
     };
     let t0 = std::time::Instant::now();
-    let entries = fleet::train_fleet(&a.dir, &a.out, &opts)?;
-    print!("{}", fleet::summary(&entries, t0.elapsed().as_secs_f64()));
-    let failed = entries.iter().filter(|e| e.error.is_some()).count();
-    anyhow::ensure!(failed == 0, "{failed} recording(s) failed");
+    let units = a.units.clone();
+    let read = move |p: &std::path::Path| super::read_recording(p, &units);
+    let rows = fleet::calibrate_fleet(
+        &a.dir,
+        &a.out,
+        &opts,
+        &limits,
+        command_line,
+        &read,
+        &progress("calibrating the fleet"),
+    )?;
+    let md = fleet::summary_markdown(&rows, opts.window, &limits, t0.elapsed().as_secs_f64());
+    for (name, text) in [
+        ("summary.csv", fleet::summary_csv(&rows)),
+        ("summary.md", md.clone()),
+    ] {
+        let p = a.out.join(name);
+        rlg_io::atomic::write(&p, text.as_bytes())
+            .with_context(|| format!("writing {}", p.display()))?;
+    }
+    print!("{md}");
+    let failed = rows.iter().filter(|r| r.pass == Some(false)).count();
+    anyhow::ensure!(
+        failed == 0,
+        "{failed} of {} gyro(s) failed (see {})",
+        rows.len(),
+        a.out.join("summary.md").display()
+    );
     Ok(())
 }

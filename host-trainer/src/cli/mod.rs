@@ -2,6 +2,7 @@
 
 pub mod benchmark_diagnose;
 pub mod benchmark_lssvm;
+pub mod calibrate;
 pub mod close_loop;
 pub mod default_table;
 pub mod diagnose;
@@ -11,6 +12,7 @@ pub mod report;
 pub mod resample;
 pub mod simulate;
 pub mod static_repro;
+pub mod terms;
 pub mod train;
 
 use clap::{Parser, Subcommand};
@@ -27,6 +29,9 @@ pub struct Cli {
 /// Sub-commands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Calibrate a gyro from a chamber recording: tune, compare with the baselines on held-out
+    /// data, write the report, the model and the board tables (Rust and C).
+    Calibrate(calibrate::CalibrateArgs),
     /// Train an LS-SVM model and write the model file (JSON).
     Train(train::TrainArgs),
     /// Write a model file as a Rust const table for the board.
@@ -58,12 +63,15 @@ pub enum Command {
     /// Reproduce every result of the paper, print it beside the published values and write
     /// the report folder (Markdown summary and PNG figures).
     Report(report::ReportArgs),
+    /// List the physics terms a model file can use: parameters, units, equations.
+    Terms(terms::TermsArgs),
 }
 
 impl Cli {
     /// Runs the command; `command_line` is recorded as provenance.
     pub fn run(self, command_line: &str) -> anyhow::Result<()> {
         match self.command {
+            Command::Calibrate(a) => calibrate::run(&a, command_line),
             Command::Train(a) => train::run(&a, command_line),
             Command::Export(a) => export::run(&a, command_line),
             Command::Simulate(a) => simulate::run(&a),
@@ -79,6 +87,7 @@ impl Cli {
             Command::Resample(a) => resample::run(&a),
             Command::StaticRepro(a) => static_repro::run(&a),
             Command::Report(a) => report::run(&a),
+            Command::Terms(a) => terms::run(&a),
         }
     }
 }

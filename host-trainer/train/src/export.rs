@@ -46,7 +46,7 @@ pub enum ExportError {
     Table(compensator_core::TableError),
     /// The board's f32 evaluation of the table departs from the f64 model by more than
     /// [`EXPORT_LIMIT_DPH`] somewhere in the trained range.
-    #[error("the board's f32 evaluation departs from the model by {deviation_dph:.2e} °/h (limit {limit_dph:.0e} °/h): coefficients up to |a| = {max_alpha_dph:.2e} °/h cancel in f32; retrain with a smaller c")]
+    #[error("the board's f32 evaluation departs from the model by {deviation_dph:.2e} °/h (limit {limit_dph:.1e} °/h): coefficients up to |a| = {max_alpha_dph:.2e} °/h cancel in f32; retrain with a smaller c")]
     Precision {
         /// Largest |f32 − f64| found, °/h.
         deviation_dph: f64,
@@ -70,18 +70,55 @@ pub const EXPORT_LIMIT_DPH: f64 = 5e-5;
 /// Points [`f32_deviation_dph`] probes beyond the support vectors.
 const PROBES: usize = 1024;
 
-/// Largest |f32 board evaluation − f64 model| over the support vectors and [`PROBES`]
+/// Largest |f32 board correction − f64 correction| over the support vectors and [`PROBES`]
 /// quasi-random points (Halton) of the trained input box, °/h, each input rounded to f32
 /// first (what the board would see).
 pub fn f32_deviation_dph(m: &ModelFile) -> Result<f64, ExportError> {
-    match m.lssvm.dim() {
+    Ok(precision(m)?.deviation_dph)
+}
+
+/// The f32 evaluation of a table against its f64 model, and the limit it is held to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Precision {
+    /// Largest |f32 − f64| of the correction f(x) − reference, °/h ([`f32_deviation_dph`]).
+    pub deviation_dph: f64,
+    /// Largest |correction| over the same points, °/h.
+    pub max_correction_dph: f64,
+    /// The limit: [`EXPORT_LIMIT_DPH`], or [`LIMIT_F32_STEPS`] f32 steps of the largest
+    /// correction when that is coarser (a correction of ±400 °/h, a MEMS gyro's over a few
+    /// °C, is itself only representable to 3e-5 °/h in f32).
+    pub limit_dph: f64,
+}
+
+/// See [`Precision::limit_dph`]: an f32 sum of a few dozen terms of that size rounds by a
+/// few steps of its largest value.
+pub const LIMIT_F32_STEPS: f64 = 4.0;
+
+/// One f32 step (unit in the last place) at |v|.
+pub fn f32_step(v: f64) -> f64 {
+    let r = v.abs() as f32;
+    if !r.is_finite() {
+        return f64::INFINITY;
+    }
+    f64::from(f32::from_bits(r.to_bits() + 1) - r)
+}
+
+/// [`Precision`] of `m`: its table evaluated in f32 over the support vectors and [`PROBES`]
+/// quasi-random points of the trained box.
+pub fn precision(m: &ModelFile) -> Result<Precision, ExportError> {
+    let (deviation_dph, max_correction_dph) = match m.lssvm.dim() {
         1 => deviation::<1>(m),
         2 => deviation::<2>(m),
         3 => deviation::<3>(m),
         4 => deviation::<4>(m),
         5 => deviation::<5>(m),
         got => Err(ExportError::Dimension { got, want: 5 }),
-    }
+    }?;
+    Ok(Precision {
+        deviation_dph,
+        max_correction_dph,
+        limit_dph: EXPORT_LIMIT_DPH.max(LIMIT_F32_STEPS * f32_step(max_correction_dph)),
+    })
 }
 
 /// The radical inverse of `i` in base `b` (Halton sequence component).
@@ -95,14 +132,19 @@ fn radical_inverse(mut i: usize, b: usize) -> f64 {
     r
 }
 
-fn deviation<const D: usize>(m: &ModelFile) -> Result<f64, ExportError> {
+fn deviation<const D: usize>(m: &ModelFile) -> Result<(f64, f64), ExportError> {
     const PRIMES: [usize; 5] = [2, 3, 5, 7, 11];
     let t = to_f32::<D>(m)?;
     let board = t.as_model();
     let l = &m.lssvm;
+    // The board subtracts the correction f(x) − reference, so that is what is compared.
+    let reference = t.spec.reference_dph;
+    let largest = std::cell::Cell::new(0.0f64);
     let at = |x: [f32; D]| {
         let xf: Vec<f64> = x.iter().map(|v| f64::from(*v)).collect();
-        (f64::from(board.predict_dph(&x)) - m.predict_dph(&xf)).abs()
+        let want = m.correction_dph(&xf);
+        largest.set(largest.get().max(want.abs()));
+        (f64::from(board.predict_dph(&x) - reference) - want).abs()
     };
     let mut worst = 0.0f64;
     for sv in &l.support {
@@ -119,16 +161,16 @@ fn deviation<const D: usize>(m: &ModelFile) -> Result<f64, ExportError> {
         });
         worst = worst.max(at(x));
     }
-    Ok(worst)
+    Ok((worst, largest.get()))
 }
 
-/// [`f32_deviation_dph`] checked against [`EXPORT_LIMIT_DPH`].
+/// [`precision`] checked against its limit; returns the deviation, °/h.
 pub fn check_precision(m: &ModelFile) -> Result<f64, ExportError> {
-    let deviation_dph = f32_deviation_dph(m)?;
-    if deviation_dph > EXPORT_LIMIT_DPH || deviation_dph.is_nan() {
+    let p = precision(m)?;
+    if p.deviation_dph > p.limit_dph || p.deviation_dph.is_nan() {
         return Err(ExportError::Precision {
-            deviation_dph,
-            limit_dph: EXPORT_LIMIT_DPH,
+            deviation_dph: p.deviation_dph,
+            limit_dph: p.limit_dph,
             max_alpha_dph: m
                 .lssvm
                 .alpha_dph
@@ -136,7 +178,7 @@ pub fn check_precision(m: &ModelFile) -> Result<f64, ExportError> {
                 .fold(0.0, |a, v| f64::max(a, v.abs())),
         });
     }
-    Ok(deviation_dph)
+    Ok(p.deviation_dph)
 }
 
 /// The board's numbers for a model: what the exported table holds, in owned form.
@@ -178,7 +220,7 @@ fn f32_of(v: f64, what: &'static str) -> Result<f32, ExportError> {
 }
 
 /// The next f32 towards −∞ / +∞ (finite, non-zero-crossing inputs are all we need here).
-fn f32_step(v: f32, down: bool) -> f32 {
+fn f32_next(v: f32, down: bool) -> f32 {
     if v == 0.0 {
         let tiny = f32::from_bits(1);
         return if down { -tiny } else { tiny };
@@ -201,15 +243,26 @@ fn f32_outward(v: f64, down: bool, what: &'static str) -> Result<f32, ExportErro
     if inside {
         Ok(r)
     } else {
-        f32_of(f64::from(f32_step(r, down)), what)
+        f32_of(f64::from(f32_next(r, down)), what)
     }
+}
+
+/// Whether the table stores b − reference and a reference of 0 instead of b and the
+/// reference: the board sums f(x) in f32 and subtracts the reference, so a gyro whose output
+/// sits far from zero would lose its correction to the rounding of the absolute value (at
+/// −7 000 °/h one f32 step is 4.9e-4 °/h, ten times [`EXPORT_LIMIT_DPH`]). Folded, the board
+/// sums the small correction itself; the compensated output, raw − (f(x) − reference), is the
+/// same. Folding applies where one f32 step at the reference exceeds 2 % of the export limit
+/// (|reference| ≥ 16 °/h), so tables of gyros near zero keep their literal b.
+pub fn folds_reference(reference_dph: f64) -> bool {
+    f32_step(reference_dph) > EXPORT_LIMIT_DPH / 50.0 && reference_dph.is_finite()
 }
 
 /// Converts the f64 model to the board's f32 table values. Fails when the model has not
 /// exactly `D` features, or when the result would fail `ModelRef::validate`.
 ///
 /// Mapping: support vectors, a_i, b, mean, the range (rounded outwards) and `reference_dph`
-/// are rounded to nearest f32; `input_inv_scale` = 1/scale and γ = 1/(2σ²) are computed in f64
+/// are rounded to nearest f32 (b and the reference after [`folds_reference`]); `input_inv_scale` = 1/scale and γ = 1/(2σ²) are computed in f64
 /// and then rounded; the dT/dt filter is `RateFilter::from_tau_s(rate_tau_s, dt_s)` in f32.
 pub fn to_f32<const D: usize>(m: &ModelFile) -> Result<F32Model<D>, ExportError> {
     m.validate()?;
@@ -230,6 +283,11 @@ pub fn to_f32<const D: usize>(m: &ModelFile) -> Result<F32Model<D>, ExportError>
             *o = f32_of(*x, what)?;
         }
         Ok(out)
+    };
+    let folded = if folds_reference(m.reference_dph) {
+        m.reference_dph
+    } else {
+        0.0
     };
     let mut inv_scale = [0.0f32; D];
     let mut linear = [0.0f32; D];
@@ -255,8 +313,8 @@ pub fn to_f32<const D: usize>(m: &ModelFile) -> Result<F32Model<D>, ExportError>
         input_lo: lo,
         input_hi: hi,
         gamma: f32_of(1.0 / (2.0 * l.sigma * l.sigma), "gamma")?,
-        bias_dph: f32_of(l.bias_dph, "bias_dph")?,
-        reference_dph: f32_of(m.reference_dph, "reference_dph")?,
+        bias_dph: f32_of(l.bias_dph - folded, "bias_dph")?,
+        reference_dph: f32_of(m.reference_dph - folded, "reference_dph")?,
         rate_filter: features::rate_filter(m.rate_tau_s, m.dt_s)?,
     };
     let support = l

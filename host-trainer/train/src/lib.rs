@@ -6,7 +6,6 @@ pub mod dataset;
 pub mod export;
 pub mod export_c;
 pub mod features;
-pub mod fleet;
 pub mod lssvm;
 pub mod model;
 pub mod protocol;

@@ -157,6 +157,57 @@ pub fn train_fixed_size_partially_linear(
     })
 }
 
+/// The LS-SVM with a linear trend: every feature is a kernel input, and the features with
+/// `trend[d]` set also enter linearly on (x − mean) beside the bias. A steep trend (a MEMS
+/// gyro's 100 °/h per °C) is then carried by one coefficient instead of kernel coefficients
+/// that cancel, which f32 on the board cannot sum. Exact up to `budget` samples, fixed-size
+/// with `budget` vectors beyond.
+#[allow(clippy::too_many_arguments)]
+pub fn train_with_trend(
+    features: &[String],
+    x: &[Vec<f64>],
+    y_dph: &[f64],
+    sigma: f64,
+    c: f64,
+    budget: usize,
+    trend: &[bool],
+) -> Result<Lssvm, LssvmError> {
+    if trend.len() != features.len() {
+        return Err(LssvmError::Dimension {
+            row: 0,
+            got: trend.len(),
+            want: features.len(),
+        });
+    }
+    let (scaling, z) = super::standardised(features, x, y_dph)?;
+    let lin: Vec<Vec<f64>> = (0..features.len())
+        .filter(|&d| trend[d])
+        .map(|d| x.iter().map(|r| r[d] - scaling.mean[d]).collect())
+        .collect();
+    let (support, alpha_dph, bias_dph, beta) = if z.len() <= budget {
+        let s = super::solve::solve_partially_linear(&z, &lin, y_dph, sigma, c)?;
+        (z, s.solution.alpha, s.solution.bias, s.beta)
+    } else {
+        let rows = Rows::from_rows(&z);
+        let opts = FixedSizeOptions::with_budget(budget);
+        let active = select_active_set(&rows, budget, sigma, opts.trials, opts.seed);
+        let s = fixed_size::solve_on_active_with(&rows, y_dph, &lin, sigma, c, active)?;
+        let support = s.active.iter().map(|&i| rows.row(i).to_vec()).collect();
+        (support, s.alpha, s.bias, s.linear)
+    };
+    Ok(Lssvm {
+        features: features.to_vec(),
+        scaling,
+        support,
+        alpha_dph,
+        bias_dph,
+        sigma,
+        c,
+        in_kernel: vec![true; features.len()],
+        linear_dph: super::expand_linear(trend, &beta),
+    })
+}
+
 /// One point of a hyper-parameter grid and its validation error.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GridPoint {

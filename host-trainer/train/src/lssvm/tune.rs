@@ -153,8 +153,9 @@ fn log_space(lo: f64, hi: f64, n: usize) -> Vec<f64> {
         .collect()
 }
 
-/// The folds as lists of held-out sample indices.
-fn folds(validation: &Validation, n: usize) -> Result<Vec<Vec<usize>>, TuneError> {
+/// The folds of `validation` over `n` samples, as lists of held-out sample indices (empty
+/// for leave-one-out): for scoring another model on exactly the folds [`tune`] uses.
+pub fn fold_indices(validation: &Validation, n: usize) -> Result<Vec<Vec<usize>>, TuneError> {
     match validation {
         Validation::LeaveOneOut => Ok(Vec::new()),
         Validation::Blocked { block, folds } => {
@@ -265,7 +266,7 @@ pub fn cross_validate(
     c: f64,
 ) -> Result<f64, TuneError> {
     let (_, z, lin) = super::partially_linear_design(features, x, y_dph, linear)?;
-    let folds = folds(validation, z.len())?;
+    let folds = fold_indices(validation, z.len())?;
     let v = score(&z, &lin, y_dph, &folds, sigma, c);
     if v.is_finite() {
         Ok(v)
@@ -360,7 +361,7 @@ pub fn tune_partially_linear(
         .into());
     }
     let (_, z, lin) = super::partially_linear_design(features, x, y_dph, linear)?;
-    let folds = folds(validation, z.len())?;
+    let folds = fold_indices(validation, z.len())?;
     if matches!(validation, Validation::LeaveOneOut) && z.len() < 3 {
         return Err(TuneError::Setup(format!(
             "leave-one-out needs at least 3 samples (have {})",
@@ -465,7 +466,7 @@ mod tests {
         let scaling = Scaling::fit(&f, &z).unwrap();
         let zs: Vec<Vec<f64>> = z.iter().map(|r| scaling.apply(r)).collect();
         let v = Validation::Blocked { block: 4, folds: 3 };
-        let fo = folds(&v, zs.len()).unwrap();
+        let fo = fold_indices(&v, zs.len()).unwrap();
         let got = score(&zs, &[], &y, &fo, 0.7, 50.0);
         let mut ss = 0.0;
         for fold in &fo {
@@ -547,22 +548,22 @@ mod tests {
 
     #[test]
     fn contiguous_folds_cover_each_sample_once_in_order() {
-        let f = folds(&Validation::Contiguous { folds: 3 }, 10).unwrap();
+        let f = fold_indices(&Validation::Contiguous { folds: 3 }, 10).unwrap();
         assert_eq!(f, vec![vec![0, 1, 2], vec![3, 4, 5], vec![6, 7, 8, 9]]);
-        assert!(folds(&Validation::Contiguous { folds: 3 }, 5).is_err());
+        assert!(fold_indices(&Validation::Contiguous { folds: 3 }, 5).is_err());
     }
 
     #[test]
     fn group_folds_leave_out_each_group() {
         let g = vec![0, 0, 1, 1, 2, 2, 2];
-        let f = folds(&Validation::Groups(g), 7).unwrap();
+        let f = fold_indices(&Validation::Groups(g), 7).unwrap();
         assert_eq!(f, vec![vec![0, 1], vec![2, 3], vec![4, 5, 6]]);
         assert!(matches!(
-            folds(&Validation::Groups(vec![0; 7]), 7),
+            fold_indices(&Validation::Groups(vec![0; 7]), 7),
             Err(TuneError::Setup(_))
         ));
         assert!(matches!(
-            folds(&Validation::Blocked { block: 4, folds: 3 }, 11),
+            fold_indices(&Validation::Blocked { block: 4, folds: 3 }, 11),
             Err(TuneError::Setup(_))
         ));
     }

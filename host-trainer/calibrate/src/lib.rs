@@ -1,0 +1,920 @@
+//! Calibrating a gyro of one's own: a chamber recording (and optionally a later test
+//! recording) to a tuned board table, the baselines compared on the same split, and a report.
+//!
+//! The protocol, in the order [`calibrate`] runs it:
+//! * **Input**: a continuous 1 Hz stream (time_s, rate_dph, temp_c). A bursty log (burst
+//!   means minutes apart) carries no dT/dt, so it is refused here with that reason and goes
+//!   to [`static_cal`], which fits a temperature-only model.
+//! * **Split**: with a `--test` recording, all of the calibration recording trains and the
+//!   test recording is held out. Otherwise the recording is cut into temperature cycles
+//!   ([`rlg_io::cycles::cycle_spans`]); the first ⌈k/2⌉ of k cycles train (at most k − 1),
+//!   the rest are held out. One cycle and no test recording: nothing is held out, and the
+//!   report says so and shows cross-validated figures, labelled CV.
+//! * **Inputs** of every model are the board's: recorded T and the board's causal dT/dt
+//!   estimator, computed over the whole stream so its state at the split is the board's.
+//! * **Tuning** of σ and c (and the polynomial's degree) on 100 s means of the training span,
+//!   by leave-one-cycle-out when two or more cycles train (whole cycles, so neighbouring
+//!   samples never score each other); within a single training cycle, blocked CV over
+//!   runs of 10 means ([`rlg_train::protocol::CV`], the reproduction's choice).
+//! * **Board table**: a fixed-size LS-SVM of at most `budget` support vectors with the tuned
+//!   σ, c, exported to f32. When its f32 evaluation departs from the f64 model beyond the
+//!   export limit, the next most regularised point of the CV curve that passes is taken
+//!   and the report says which and why.
+//! * **Comparison** on the held-out samples: raw, polynomial in T, stepwise over the paper's
+//!   nine terms, the LS-SVM on [T, dT/dt] and the board table through the f32
+//!   `Compensator`: bias stability over a selectable window, improvement factors, residual
+//!   by heating / cooling / hold, Allan deviation.
+
+pub mod fleet;
+pub mod phases;
+pub mod report;
+pub mod static_cal;
+
+use indicatif::ProgressBar;
+
+use compensator_core::{Compensator, Feature, SensorLimits};
+use rlg_eval::baselines::{paper_candidates, stepwise, PolyFit, StepwiseFit, StepwiseOptions};
+use rlg_eval::metrics::allan::{octave_clusters, overlapping_adev_ci, AdevCi, CONFIDENCE_1SIGMA};
+use rlg_eval::metrics::compare::improvement_factor;
+use rlg_eval::metrics::stability::{bias_stability_gapless_dph, rms};
+use rlg_io::cycles::cycle_spans;
+use rlg_io::recording::Recording;
+use rlg_train::dataset::{self, Dataset, RecordingSelection};
+use rlg_train::export;
+use rlg_train::features::{self, FeatureSeries};
+use rlg_train::lssvm::sparse::{train_reduced, Reduction};
+use rlg_train::lssvm::tune::{fold_indices, tune, CvPoint, Grid, Tuned, Validation, PARSIMONY};
+use rlg_train::lssvm::Lssvm;
+use rlg_train::model::{ModelFile, Provenance};
+use rlg_train::protocol::{CV, RATE_TAU_S, SUPPORT_VECTORS, TRAIN_BLOCK};
+
+use phases::PhaseRms;
+
+/// Largest board table this tool writes, support vectors: at D = 2 a vector costs 12 bytes of
+/// flash (two f32 coordinates and a coefficient), so 512 vectors are 6 KiB of the 32 KiB
+/// flash budget and about 30 ms of a 1 Hz update on the Cortex-M4F.
+pub const MAX_BUDGET: usize = 512;
+
+/// Largest training set the exact LS-SVM row of the comparison is solved for; beyond it a
+/// fixed-size model of [`LARGE_BUDGET`] vectors stands in (as in the reproduction).
+pub const EXACT_MAX: usize = 4000;
+/// See [`EXACT_MAX`].
+pub const LARGE_BUDGET: usize = 512;
+
+/// Highest polynomial degree in T the polynomial baseline is chosen from.
+pub const MAX_POLY_DEGREE: usize = 5;
+
+/// Options of [`calibrate`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct Options {
+    /// Cycles of the calibration recording that train (without a test recording); `None`:
+    /// ⌈k/2⌉ of k, at most k − 1.
+    pub train_cycles: Option<usize>,
+    /// Stability window, samples (s at 1 Hz).
+    pub window: usize,
+    /// Training samples are means of this many 1 Hz samples (1: raw).
+    pub block: usize,
+    /// Support vectors of the board table.
+    pub budget: usize,
+    /// dT/dt estimator time constant, s.
+    pub rate_tau_s: f64,
+    /// σ × c search grid.
+    pub grid: Grid,
+    /// Entry / removal levels of the stepwise regression.
+    pub stepwise: StepwiseOptions,
+    /// Use only samples from this time on, s.
+    pub from_s: Option<f64>,
+    /// Use only samples up to this time, s.
+    pub to_s: Option<f64>,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            train_cycles: None,
+            window: 100,
+            block: TRAIN_BLOCK,
+            budget: SUPPORT_VECTORS,
+            rate_tau_s: RATE_TAU_S,
+            grid: Grid::default(),
+            stepwise: StepwiseOptions::default(),
+            from_s: None,
+            to_s: None,
+        }
+    }
+}
+
+impl Options {
+    fn validate(&self) -> anyhow::Result<()> {
+        anyhow::ensure!(
+            self.window >= 2,
+            "the stability window must be at least 2 samples (got {})",
+            self.window
+        );
+        anyhow::ensure!(self.block >= 1, "--block must be at least 1");
+        anyhow::ensure!(
+            (1..=MAX_BUDGET).contains(&self.budget),
+            "--budget {}: the board table holds 1 to {MAX_BUDGET} support vectors",
+            self.budget
+        );
+        anyhow::ensure!(
+            self.rate_tau_s.is_finite() && self.rate_tau_s >= 1.0,
+            "--rate-tau-s {}: the dT/dt estimator needs a time constant of at least 1 s",
+            self.rate_tau_s
+        );
+        anyhow::ensure!(
+            self.train_cycles != Some(0),
+            "--train-cycles 0: at least one cycle must train"
+        );
+        if let (Some(a), Some(b)) = (self.from_s, self.to_s) {
+            anyhow::ensure!(a < b, "--from-s {a} is not before --to-s {b}");
+        }
+        Ok(())
+    }
+}
+
+/// What is held out.
+#[derive(Clone, Debug, PartialEq)]
+pub enum HeldOut {
+    /// The later cycles of the calibration recording.
+    Cycles {
+        /// Cycles that train.
+        train: usize,
+        /// Cycles held out.
+        test: usize,
+    },
+    /// A separate test recording.
+    TestRecording,
+    /// Nothing: one cycle and no test recording; only cross-validated figures exist.
+    Nothing,
+}
+
+/// How the recording was split and the hyper-parameters scored.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Split {
+    /// What is held out.
+    pub held_out: HeldOut,
+    /// Temperature cycles found in the calibration recording.
+    pub cycles: Vec<(f64, f64)>,
+    /// Training span of the calibration recording, s.
+    pub train_span_s: (f64, f64),
+    /// Held-out span (of the calibration or the test recording), s.
+    pub test_span_s: Option<(f64, f64)>,
+    /// Training cycles that label the CV folds (1: blocked CV within the cycle).
+    pub cv_groups: usize,
+    /// The CV scheme, in words.
+    pub validation: String,
+}
+
+/// The board table's hyper-parameters and why.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BoardChoice {
+    /// σ of the table.
+    pub sigma: f64,
+    /// c of the table.
+    pub c: f64,
+    /// CV RMS of the table at this σ, c, °/h.
+    pub cv_rms_dph: f64,
+    /// CV RMS of the table at the LS-SVM's σ, c, °/h.
+    pub exact_choice_cv_rms_dph: f64,
+    /// Support vectors.
+    pub support_vectors: usize,
+    /// |f32 − f64| of the table's correction over the trained range, °/h.
+    pub f32_deviation_dph: f64,
+    /// The export limit it was held to, °/h.
+    pub f32_limit_dph: f64,
+    /// Whether the table stores b − reference ([`export::folds_reference`]).
+    pub reference_folded: bool,
+    /// Points of the CV curve refused for f32 precision before this one, (σ, c, deviation).
+    pub refused: Vec<(f64, f64, f64)>,
+}
+
+/// Held-out scores of one model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HeldOutScore {
+    /// Bias stability of the compensated held-out output over the window, °/h.
+    pub stability_dph: f64,
+    /// Raw stability / this one.
+    pub improvement: Option<f64>,
+    /// RMS of the window means of the compensated output about their mean, by phase.
+    pub phases: PhaseRms,
+    /// Allan deviation of the compensated held-out output, with 1σ χ² intervals.
+    pub allan: Vec<AdevCi>,
+}
+
+/// One row of the comparison.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelRow {
+    /// Name as printed.
+    pub name: String,
+    /// What it is, in a few words (terms, degree, σ and c).
+    pub detail: String,
+    /// TRAINING RMS on the training means, °/h (`None`: nothing fitted).
+    pub train_rms_dph: Option<f64>,
+    /// Cross-validated RMS on the tuning means, °/h (same folds for every fitted model).
+    pub cv_rms_dph: Option<f64>,
+    /// Held-out scores (`None` when nothing is held out).
+    pub held_out: Option<HeldOutScore>,
+}
+
+/// Row names.
+pub const RAW: &str = "raw";
+/// See [`RAW`].
+pub const POLY: &str = "polynomial in T";
+/// See [`RAW`].
+pub const STEPWISE: &str = "stepwise (paper's 9 terms)";
+/// See [`RAW`].
+pub const LSSVM: &str = "LS-SVM on [T, dT/dt]";
+/// See [`RAW`].
+pub const BOARD: &str = "board table (f32)";
+
+/// The held-out stream as the figures need it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HeldOutSeries {
+    /// Times, s.
+    pub time_s: Vec<f64>,
+    /// Sensor temperature, °C.
+    pub temp_c: Vec<f64>,
+    /// The board's dT/dt estimate, °C/s.
+    pub rate_c_per_s: Vec<f64>,
+    /// Output of each row of [`Calibration::rows`] (raw first), °/h.
+    pub outputs: Vec<Vec<f64>>,
+}
+
+/// The result of [`calibrate`].
+#[derive(Clone, Debug)]
+pub struct Calibration {
+    /// Options used.
+    pub options: Options,
+    /// The split.
+    pub split: Split,
+    /// 1 Hz samples of the calibration recording.
+    pub samples: usize,
+    /// Training means (of `block` samples).
+    pub train_samples: usize,
+    /// The LS-SVM's tuning.
+    pub tuned: Tuned,
+    /// The board table's choice.
+    pub board: BoardChoice,
+    /// The board table (what `model.json` and the exported tables hold).
+    pub board_model: ModelFile,
+    /// Degree of the polynomial baseline and the CV RMS of each degree tried.
+    pub poly_degree: usize,
+    /// CV RMS of degrees 1 … [`MAX_POLY_DEGREE`], °/h.
+    pub poly_cv_dph: Vec<f64>,
+    /// The stepwise selection.
+    pub stepwise: StepwiseFit,
+    /// The comparison: raw, polynomial, stepwise, LS-SVM, board.
+    pub rows: Vec<ModelRow>,
+    /// The held-out stream (empty when nothing is held out).
+    pub series: HeldOutSeries,
+    /// Support vectors of the LS-SVM row.
+    pub lssvm_support: usize,
+    /// Lines the report must show (a changed choice, a caveat).
+    pub notes: Vec<String>,
+}
+
+impl Calibration {
+    /// The row named `name`.
+    pub fn row(&self, name: &str) -> Option<&ModelRow> {
+        self.rows.iter().find(|r| r.name == name)
+    }
+}
+
+/// The median sample step of `rec`, checked to be a continuous 1 Hz stream; `what` names the
+/// recording in errors.
+pub fn check_stream(rec: &Recording, what: &str) -> anyhow::Result<f64> {
+    anyhow::ensure!(
+        rec.len() >= 2,
+        "{what} has {} sample(s); a calibration needs a 1 Hz stream",
+        rec.len()
+    );
+    let mut steps: Vec<f64> = rec.time_s.windows(2).map(|w| w[1] - w[0]).collect();
+    steps.sort_by(f64::total_cmp);
+    let dt = steps[steps.len() / 2];
+    anyhow::ensure!(
+        dt <= 1.1,
+        "{what}: samples every {dt:.3} s (median step): not a continuous 1 Hz stream (burst \
+         means?), so no dT/dt model can be trained from it; give --static for a \
+         temperature-only model"
+    );
+    anyhow::ensure!(
+        dt >= 0.9,
+        "{what}: samples every {dt:.3} s (median step); the board runs at 1 Hz: bring it to \
+         1 Hz first with `rlg resample --period 1`"
+    );
+    Ok(dt)
+}
+
+fn features_of(rec: &Recording, tau: f64, dt: f64) -> anyhow::Result<FeatureSeries> {
+    Ok(features::compute(
+        &[Feature::TempC, Feature::TempRateCPerS],
+        &rec.temp_c,
+        &rec.time_s,
+        tau,
+        dt,
+    )?)
+}
+
+/// Restricts `rec` to `[from_s, to_s]`.
+fn window_of(rec: &Recording, from_s: Option<f64>, to_s: Option<f64>) -> anyhow::Result<Recording> {
+    if from_s.is_none() && to_s.is_none() {
+        return Ok(rec.clone());
+    }
+    let lo = from_s.unwrap_or(f64::NEG_INFINITY);
+    let hi = to_s.unwrap_or(f64::INFINITY);
+    let a = rec.time_s.partition_point(|t| *t < lo);
+    let b = rec.time_s.partition_point(|t| *t <= hi);
+    anyhow::ensure!(
+        b > a + 1,
+        "no samples between --from-s {lo} and --to-s {hi} (the recording spans {} … {} s)",
+        rec.time_s.first().unwrap_or(&f64::NAN),
+        rec.time_s.last().unwrap_or(&f64::NAN)
+    );
+    let pick = |v: &Vec<f64>| v[a..b].to_vec();
+    Ok(Recording {
+        time_s: pick(&rec.time_s),
+        rate_dph: pick(&rec.rate_dph),
+        temp_c: pick(&rec.temp_c),
+        chamber_c: rec.chamber_c.as_ref().map(pick),
+        extra: Vec::new(),
+        comments: rec.comments.clone(),
+    })
+}
+
+/// The training span's 100 s means and the cycle each starts in, by the rule
+/// [`dataset::from_recording`] uses (warm-up dropped, consecutive kept samples averaged).
+fn cycle_labels(
+    rec: &Recording,
+    series: &FeatureSeries,
+    to_s: f64,
+    block: usize,
+    cycles: &[(f64, f64)],
+) -> Vec<usize> {
+    let keep: Vec<usize> = (0..rec.len())
+        .filter(|&k| !series.warming_up[k] && rec.time_s[k] <= to_s)
+        .collect();
+    keep.chunks_exact(block)
+        .map(|c| {
+            let t = rec.time_s[c[0]];
+            cycles
+                .iter()
+                .position(|s| t < s.1)
+                .unwrap_or(cycles.len() - 1)
+        })
+        .collect()
+}
+
+fn col(x: &[Vec<f64>], d: usize) -> Vec<f64> {
+    x.iter().map(|r| r[d]).collect()
+}
+
+/// CV RMS of a model fitted by `fit` (training indices → predictions at held-out indices).
+fn cv_rms(
+    folds: &[Vec<usize>],
+    n: usize,
+    y: &[f64],
+    fit: impl Fn(&[usize], &[usize]) -> Option<Vec<f64>>,
+) -> Option<f64> {
+    let mut ss = 0.0;
+    let mut count = 0usize;
+    for f in folds {
+        let mut out = vec![false; n];
+        for &i in f {
+            out[i] = true;
+        }
+        let train: Vec<usize> = (0..n).filter(|&i| !out[i]).collect();
+        let pred = fit(&train, f)?;
+        for (p, &i) in pred.iter().zip(f) {
+            ss += (y[i] - p).powi(2);
+            count += 1;
+        }
+    }
+    (count > 0).then(|| (ss / count as f64).sqrt())
+}
+
+fn poly_of(x: &[f64], y: &[f64], idx: &[usize], degree: usize) -> Option<PolyFit> {
+    let xs: Vec<f64> = idx.iter().map(|&i| x[i]).collect();
+    let ys: Vec<f64> = idx.iter().map(|&i| y[i]).collect();
+    PolyFit::fit(&xs, &ys, degree).ok()
+}
+
+/// The board table, tuned as the table it is: a fixed-size model of `budget` vectors scored
+/// by CV on the same folds at every point of the coarse σ × c grid and at the LS-SVM's
+/// choice (a small table cannot follow a σ the exact model can, so the exact model's σ, c are
+/// not assumed to suit it). The LS-SVM's choice is kept when its table scores within
+/// [`PARSIMONY`] of the best, so the two rows then differ only by the reduction; otherwise
+/// the best-scoring point. Points whose table departs in f32 beyond the export limit are
+/// passed over, best first.
+#[allow(clippy::too_many_arguments)]
+fn choose_board(
+    data: &Dataset,
+    tune_data: &Dataset,
+    folds: &[Vec<usize>],
+    tuned: &Tuned,
+    budget: usize,
+    provenance: &Provenance,
+    rate_tau_s: f64,
+    progress: &ProgressBar,
+) -> anyhow::Result<(BoardChoice, ModelFile)> {
+    use rayon::prelude::*;
+    let n = tune_data.x.len();
+    let exact = (tuned.sigma, tuned.c);
+    let mut points: Vec<(f64, f64)> = tuned.curve.iter().map(|p| (p.sigma, p.c)).collect();
+    points.push(exact);
+    progress.reset();
+    progress.set_message(format!("tuning the {budget}-vector table"));
+    progress.set_length(points.len() as u64);
+    let scored: Vec<CvPoint> = points
+        .par_iter()
+        .map(|&(sigma, c)| {
+            let cv = cv_rms(folds, n, &tune_data.y_dph, |tr, te| {
+                let xs: Vec<Vec<f64>> = tr.iter().map(|&i| tune_data.x[i].clone()).collect();
+                let ys: Vec<f64> = tr.iter().map(|&i| tune_data.y_dph[i]).collect();
+                let m = train_reduced(
+                    &tune_data.features,
+                    &xs,
+                    &ys,
+                    sigma,
+                    c,
+                    budget.min(xs.len()),
+                    Reduction::FIXED_SIZE,
+                )
+                .ok()?;
+                Some(te.iter().map(|&i| m.predict(&tune_data.x[i])).collect())
+            })
+            .unwrap_or(f64::NAN);
+            progress.inc(1);
+            CvPoint {
+                sigma,
+                c,
+                cv_rms_dph: cv,
+            }
+        })
+        .collect();
+    progress.finish_and_clear();
+    let exact_point = *scored.last().unwrap_or(&CvPoint {
+        sigma: exact.0,
+        c: exact.1,
+        cv_rms_dph: f64::NAN,
+    });
+    let mut order: Vec<CvPoint> = scored
+        .iter()
+        .filter(|p| p.cv_rms_dph.is_finite())
+        .copied()
+        .collect();
+    order.sort_by(|a, b| a.cv_rms_dph.total_cmp(&b.cv_rms_dph));
+    let best = order.first().map_or(f64::NAN, |p| p.cv_rms_dph);
+    if exact_point.cv_rms_dph <= best * (1.0 + PARSIMONY) {
+        order.insert(0, exact_point);
+    }
+    let budget = budget.min(data.x.len());
+    let mut refused = Vec::new();
+    for p in order {
+        let lssvm = train_reduced(
+            &data.features,
+            &data.x,
+            &data.y_dph,
+            p.sigma,
+            p.c,
+            budget,
+            Reduction::FIXED_SIZE,
+        )?;
+        let m = ModelFile::from_trained(
+            lssvm,
+            &data.x,
+            &data.y_dph,
+            rate_tau_s,
+            data.dt_s,
+            None,
+            provenance.clone(),
+        )?;
+        let prec = export::precision(&m)?;
+        let dev = prec.deviation_dph;
+        if dev <= prec.limit_dph {
+            let choice = BoardChoice {
+                sigma: p.sigma,
+                c: p.c,
+                cv_rms_dph: p.cv_rms_dph,
+                exact_choice_cv_rms_dph: exact_point.cv_rms_dph,
+                support_vectors: m.lssvm.support.len(),
+                f32_deviation_dph: dev,
+                f32_limit_dph: prec.limit_dph,
+                reference_folded: export::folds_reference(m.reference_dph),
+                refused,
+            };
+            return Ok((choice, m));
+        }
+        refused.push((p.sigma, p.c, dev));
+    }
+    anyhow::bail!(
+        "no (σ, c) of the grid gives a board table within the f32 limit of {:.0e} °/h \
+         (tried {}; smallest departure {:.2e} °/h); widen the grid to smaller c with --c-min",
+        export::EXPORT_LIMIT_DPH,
+        refused.len(),
+        refused.iter().map(|r| r.2).fold(f64::INFINITY, f64::min)
+    )
+}
+
+/// The board table run sample by sample through the f32 `Compensator` over the whole
+/// `stream` (so the estimator's state is the board's); outputs at `keep`.
+pub fn board_output(
+    stream: &Recording,
+    model: &ModelFile,
+    keep: &[usize],
+) -> anyhow::Result<Vec<f64>> {
+    let t = export::to_f32::<2>(model)?;
+    let mut comp = Compensator::new(t.as_model(), SensorLimits::DEFAULT);
+    anyhow::ensure!(
+        comp.table_ok(),
+        "the exported table fails the board's validation"
+    );
+    let mut all = Vec::with_capacity(stream.len());
+    for k in 0..stream.len() {
+        let out = comp.update(stream.temp_c[k] as f32, stream.rate_dph[k] as f32);
+        all.push(f64::from(out.rate_dph));
+    }
+    Ok(keep.iter().map(|&k| all[k]).collect())
+}
+
+/// Allan deviation of a held-out output with 1σ intervals from the equivalent degrees of
+/// freedom, noise type identified per τ as Stable32 does (the held-out span is one continuous
+/// stretch of the stream; gaps are not bridged).
+fn allan_of(v: &[f64]) -> Vec<AdevCi> {
+    overlapping_adev_ci(v, 1.0, &octave_clusters(v.len()), CONFIDENCE_1SIGMA)
+}
+
+/// Runs the calibration (see the module doc). `cal` trains; `test`, when given, is held out.
+/// `progress` follows the σ, c search. `provenance` labels the board table.
+pub fn calibrate(
+    cal: &Recording,
+    test: Option<&Recording>,
+    opts: &Options,
+    provenance: &Provenance,
+    progress: &ProgressBar,
+) -> anyhow::Result<Calibration> {
+    opts.validate()?;
+    let cal = window_of(cal, opts.from_s, opts.to_s)?;
+    let dt = check_stream(&cal, "the calibration recording")?;
+    let series = features_of(&cal, opts.rate_tau_s, dt)?;
+    let cycles = cycle_spans(&cal.time_s, &cal.temp_c);
+    let k = cycles.len();
+    let t0 = cal.time_s[0];
+    let t_end = *cal.time_s.last().unwrap_or(&t0);
+    let mut notes = Vec::new();
+
+    // The split.
+    let (held_out, train_end) = match test {
+        Some(_) => (HeldOut::TestRecording, f64::INFINITY),
+        None if k >= 2 => {
+            let n_train = match opts.train_cycles {
+                Some(n) => {
+                    anyhow::ensure!(
+                        n < k,
+                        "--train-cycles {n}: the recording has {k} temperature cycles; train on \
+                         fewer to leave one held out, or give --test"
+                    );
+                    n
+                }
+                None => k.div_ceil(2).min(k - 1),
+            };
+            (
+                HeldOut::Cycles {
+                    train: n_train,
+                    test: k - n_train,
+                },
+                cycles[n_train - 1].1,
+            )
+        }
+        None => {
+            notes.push(format!(
+                "No held-out data: the recording is one temperature cycle and no --test was \
+                 given. Every figure below is TRAINING or cross-validated (CV, {} of the \
+                 cycle); record another cycle or a later run to measure held-out stability.",
+                "blocked folds"
+            ));
+            (HeldOut::Nothing, f64::INFINITY)
+        }
+    };
+    let train_cycles = match held_out {
+        HeldOut::Cycles { train, .. } => train,
+        _ => k,
+    };
+    let to_s = train_end.is_finite().then_some(train_end);
+    let sel = |block| RecordingSelection {
+        from_s: None,
+        to_s,
+        block,
+        rate_tau_s: opts.rate_tau_s,
+    };
+    let data = dataset::from_recording(&cal, &sel(opts.block))?;
+    let tune_data = dataset::from_recording(&cal, &sel(TRAIN_BLOCK))?;
+    let n_tune = tune_data.x.len();
+
+    // Folds: whole training cycles when there are two or more, else blocked within the one.
+    let (validation, cv_groups) = if train_cycles >= 2 {
+        let labels = cycle_labels(
+            &cal,
+            &series,
+            train_end.min(t_end),
+            TRAIN_BLOCK,
+            &cycles[..train_cycles],
+        );
+        anyhow::ensure!(
+            labels.len() == n_tune,
+            "internal: {} cycle labels for {n_tune} tuning means",
+            labels.len()
+        );
+        let mut distinct = labels.clone();
+        distinct.dedup();
+        if distinct.len() >= 2 {
+            (Validation::Groups(labels), distinct.len())
+        } else {
+            (CV, 1)
+        }
+    } else {
+        (CV, 1)
+    };
+    anyhow::ensure!(
+        fold_indices(&validation, n_tune).is_ok(),
+        "the training span holds {n_tune} means of {TRAIN_BLOCK} s; tuning needs at least 50 \
+         (about 1.4 h at 1 Hz after the dT/dt warm-up)"
+    );
+    let folds = fold_indices(&validation, n_tune)?;
+
+    // The LS-SVM: σ and c by CV, then the model.
+    let tuned = tune(
+        &tune_data.features,
+        &tune_data.x,
+        &tune_data.y_dph,
+        &validation,
+        &opts.grid,
+        progress,
+    )?;
+    progress.finish_and_clear();
+    let (names, x, y) = (&data.features, &data.x, &data.y_dph);
+    let lssvm = if x.len() <= EXACT_MAX {
+        Lssvm::train(names, x, y, tuned.sigma, tuned.c)?
+    } else {
+        train_reduced(
+            names,
+            x,
+            y,
+            tuned.sigma,
+            tuned.c,
+            LARGE_BUDGET,
+            Reduction::FIXED_SIZE,
+        )?
+    };
+    let (board, board_model) = choose_board(
+        &data,
+        &tune_data,
+        &folds,
+        &tuned,
+        opts.budget,
+        provenance,
+        opts.rate_tau_s,
+        progress,
+    )?;
+    if (board.sigma, board.c) != (tuned.sigma, tuned.c) {
+        notes.push(format!(
+            "The board table uses σ = {:.3}, c = {:.3}, chosen by the CV of the {}-vector table \
+             itself (CV rms {:.3e} °/h; at the LS-SVM's σ = {:.3}, c = {:.3} the table scores \
+             {:.3e} °/h).",
+            board.sigma,
+            board.c,
+            board.support_vectors,
+            board.cv_rms_dph,
+            tuned.sigma,
+            tuned.c,
+            board.exact_choice_cv_rms_dph
+        ));
+    }
+    if let Some(r) = board.refused.first() {
+        notes.push(format!(
+            "{} better-scoring point(s) of the grid were passed over for the board table: their \
+             f32 evaluation departs from the f64 model by up to {:.2e} °/h (limit {:.1e}; first: \
+             σ = {:.3}, c = {:.3}).",
+            board.refused.len(),
+            board.refused.iter().map(|r| r.2).fold(0.0, f64::max),
+            board.f32_limit_dph,
+            r.0,
+            r.1
+        ));
+    }
+
+    // Polynomial in T: degree by CV on the same folds.
+    let tt = col(&tune_data.x, 0);
+    let poly_cv_dph: Vec<f64> = (1..=MAX_POLY_DEGREE)
+        .map(|d| {
+            cv_rms(&folds, n_tune, &tune_data.y_dph, |tr, te| {
+                let p = poly_of(&tt, &tune_data.y_dph, tr, d)?;
+                Some(te.iter().map(|&i| p.predict(tt[i])).collect())
+            })
+            .unwrap_or(f64::NAN)
+        })
+        .collect();
+    let best = poly_cv_dph
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(f64::INFINITY, f64::min);
+    anyhow::ensure!(best.is_finite(), "no polynomial in T could be fitted");
+    let poly_degree = 1 + poly_cv_dph
+        .iter()
+        .position(|v| *v <= best * (1.0 + PARSIMONY))
+        .unwrap_or(0);
+    let all: Vec<usize> = (0..y.len()).collect();
+    let poly = poly_of(&col(x, 0), y, &all, poly_degree)
+        .ok_or_else(|| anyhow::anyhow!("the polynomial in T could not be fitted"))?;
+
+    // Stepwise over the paper's nine terms; its CV re-runs the selection in every fold.
+    let cand = paper_candidates(&col(x, 0), &col(x, 1))?;
+    let sw = stepwise(&cand, y, &opts.stepwise)?;
+    let tune_cand = paper_candidates(&tt, &col(&tune_data.x, 1))?;
+    let sw_cv = cv_rms(&folds, n_tune, &tune_data.y_dph, |tr, te| {
+        let pick = |idx: &[usize]| -> Vec<_> {
+            tune_cand
+                .iter()
+                .map(|c| {
+                    let mut c = c.clone();
+                    c.values = idx.iter().map(|&i| c.values[i]).collect();
+                    c
+                })
+                .collect()
+        };
+        let ytr: Vec<f64> = tr.iter().map(|&i| tune_data.y_dph[i]).collect();
+        let f = stepwise(&pick(tr), &ytr, &opts.stepwise).ok()?;
+        f.fit.predict(&pick(te)).ok()
+    });
+    let poly_cv = poly_cv_dph[poly_degree - 1];
+
+    // The held-out stream.
+    let (stream, stream_series, start) = match test {
+        Some(t) => {
+            let dt_t = check_stream(t, "the test recording")?;
+            (t.clone(), features_of(t, opts.rate_tau_s, dt_t)?, 0)
+        }
+        None => {
+            // The reproduction's rule: samples from the cycle boundary on are held out.
+            let s = cal.time_s.partition_point(|t| *t < train_end);
+            (cal.clone(), series.clone(), s)
+        }
+    };
+    let keep: Vec<usize> = (start..stream.len())
+        .filter(|&k| !stream_series.warming_up[k])
+        .collect();
+    let has_test = !matches!(held_out, HeldOut::Nothing);
+    anyhow::ensure!(
+        !has_test || keep.len() >= 2 * opts.window,
+        "the held-out part has {} samples after the dT/dt warm-up, fewer than two stability \
+         windows of {}",
+        keep.len(),
+        opts.window
+    );
+    let xs: Vec<&Vec<f64>> = keep.iter().map(|&k| &stream_series.rows[k]).collect();
+    let raw: Vec<f64> = keep.iter().map(|&k| stream.rate_dph[k]).collect();
+    let minus = |pred: &dyn Fn(&[f64]) -> f64| -> Vec<f64> {
+        xs.iter().zip(&raw).map(|(r, y)| y - pred(r)).collect()
+    };
+    let held_cand = paper_candidates(
+        &xs.iter().map(|r| r[0]).collect::<Vec<_>>(),
+        &xs.iter().map(|r| r[1]).collect::<Vec<_>>(),
+    );
+    let mut outputs = vec![raw.clone(), minus(&|r| poly.predict(r[0]))];
+    outputs.push(match held_cand {
+        Ok(c) => {
+            let p = sw.fit.predict(&c)?;
+            raw.iter().zip(&p).map(|(y, p)| y - p).collect()
+        }
+        // A held-out span with constant T cannot form the candidates; stepwise is then its
+        // intercept alone only if it chose no term.
+        Err(e) if has_test => return Err(e.into()),
+        Err(_) => Vec::new(),
+    });
+    outputs.push(minus(&|r| lssvm.predict(r)));
+    outputs.push(if has_test {
+        board_output(&stream, &board_model, &keep)?
+    } else {
+        Vec::new()
+    });
+    let time: Vec<f64> = keep.iter().map(|&k| stream.time_s[k]).collect();
+    let temp: Vec<f64> = keep.iter().map(|&k| stream.temp_c[k]).collect();
+    let rate: Vec<f64> = xs.iter().map(|r| r[1]).collect();
+
+    let resid = |pred: &dyn Fn(&[f64]) -> f64, xx: &[Vec<f64>]| -> Option<f64> {
+        let r: Vec<f64> = xx.iter().zip(y).map(|(r, y)| y - pred(r)).collect();
+        rms(&r)
+    };
+    let raw_b = has_test
+        .then(|| bias_stability_gapless_dph(&time, &raw, opts.window))
+        .flatten();
+    let score = |out: &[f64]| -> Option<HeldOutScore> {
+        if !has_test {
+            return None;
+        }
+        let b = bias_stability_gapless_dph(&time, out, opts.window).unwrap_or(f64::NAN);
+        Some(HeldOutScore {
+            stability_dph: b,
+            improvement: raw_b.and_then(|r| improvement_factor(r, b)),
+            phases: phases::phase_rms(&time, &rate, out, opts.window),
+            allan: allan_of(out),
+        })
+    };
+    let rows = vec![
+        ModelRow {
+            name: RAW.into(),
+            detail: "uncompensated output".into(),
+            train_rms_dph: None,
+            cv_rms_dph: None,
+            held_out: score(&outputs[0]),
+        },
+        ModelRow {
+            name: POLY.into(),
+            detail: format!("degree {poly_degree} (by CV of degrees 1–{MAX_POLY_DEGREE})"),
+            train_rms_dph: resid(&|r| poly.predict(r[0]), x),
+            cv_rms_dph: Some(poly_cv),
+            held_out: score(&outputs[1]),
+        },
+        ModelRow {
+            name: STEPWISE.into(),
+            detail: if sw.fit.terms.is_empty() {
+                "intercept only".into()
+            } else {
+                sw.fit.terms.join(", ")
+            },
+            train_rms_dph: rms(&sw.fit.residuals),
+            cv_rms_dph: sw_cv,
+            held_out: score(&outputs[2]),
+        },
+        ModelRow {
+            name: LSSVM.into(),
+            detail: format!(
+                "σ = {:.3}, c = {:.3}, {} support vectors",
+                tuned.sigma,
+                tuned.c,
+                lssvm.support.len()
+            ),
+            train_rms_dph: resid(&|r| lssvm.predict(r), x),
+            cv_rms_dph: Some(tuned.cv_rms_dph),
+            held_out: score(&outputs[3]),
+        },
+        ModelRow {
+            name: BOARD.into(),
+            detail: format!(
+                "fixed-size, {} vectors, σ = {:.3}, c = {:.3}",
+                board.support_vectors, board.sigma, board.c
+            ),
+            train_rms_dph: Some(board_model.training.rms_dph),
+            cv_rms_dph: Some(board.cv_rms_dph),
+            held_out: score(&outputs[4]),
+        },
+    ];
+    let (test_span_s, series_out) = if has_test {
+        (
+            Some((time[0], *time.last().unwrap_or(&time[0]))),
+            HeldOutSeries {
+                time_s: time,
+                temp_c: temp,
+                rate_c_per_s: rate,
+                outputs,
+            },
+        )
+    } else {
+        (
+            None,
+            HeldOutSeries {
+                time_s: Vec::new(),
+                temp_c: Vec::new(),
+                rate_c_per_s: Vec::new(),
+                outputs: Vec::new(),
+            },
+        )
+    };
+    Ok(Calibration {
+        options: opts.clone(),
+        split: Split {
+            held_out,
+            cycles,
+            train_span_s: (t0, train_end.min(t_end)),
+            test_span_s,
+            cv_groups,
+            validation: validation.describe(),
+        },
+        samples: cal.len(),
+        train_samples: x.len(),
+        tuned,
+        board,
+        board_model,
+        poly_degree,
+        poly_cv_dph,
+        stepwise: sw,
+        rows,
+        series: series_out,
+        lssvm_support: lssvm.support.len(),
+        notes,
+    })
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,413 @@
+//! Static characterisation: a temperature-only model from points of (T, mean output), for
+//! logs that carry no continuous 1 Hz stream (a MEMS thermal-vacuum log of bursts every few
+//! minutes, reduced to burst means by `rlg resample --bursts`) or for soak plateaus.
+//!
+//! * Points: each row of a sparse recording (median step above 1.1 s) is one point; a
+//!   continuous 1 Hz recording is reduced to means of `block` samples.
+//! * Models: a polynomial in T (degree by CV) and the LS-SVM on [T] with a linear trend in T
+//!   beside the kernel ([`train_with_trend`]: a steep absolute trend is one coefficient rather
+//!   than kernel coefficients that cancel in f32), σ and c by CV; exact up to `budget` points,
+//!   else fixed-size with `budget` vectors. Both on the same folds. Points
+//!   neighbouring in time share slow noise, so the folds leave out runs of consecutive points
+//!   (5 folds, runs of n/25); below 25 points the points are taken as independent
+//!   (closed-form leave-one-out for the LS-SVM, the same left-out point for the polynomial).
+//! * The board table is the LS-SVM's. Its output is checked in f32 as for the dynamic table;
+//!   a gyro whose output sits far from zero stores b − reference
+//!   ([`rlg_train::export::folds_reference`]), so its correction keeps its precision.
+
+use indicatif::ProgressBar;
+
+use compensator_core::Feature;
+use rlg_eval::baselines::PolyFit;
+use rlg_eval::metrics::stability::rms;
+use rlg_io::recording::Recording;
+use rlg_train::export;
+use rlg_train::lssvm::sparse::train_with_trend;
+use rlg_train::lssvm::tune::{fold_indices, CvPoint, Grid, Tuned, Validation, PARSIMONY};
+use rlg_train::model::{ModelFile, Provenance};
+
+use crate::MAX_POLY_DEGREE;
+
+/// Options of [`calibrate_static`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct StaticOptions {
+    /// Means of this many samples per point for a continuous 1 Hz recording.
+    pub block: usize,
+    /// Support vectors of the board table.
+    pub budget: usize,
+    /// σ × c grid.
+    pub grid: Grid,
+    /// The dT/dt estimator's time constant written into the table (the board runs it for its
+    /// status flags even when the model does not use dT/dt), s.
+    pub rate_tau_s: f64,
+}
+
+impl Default for StaticOptions {
+    fn default() -> Self {
+        StaticOptions {
+            block: rlg_train::protocol::TRAIN_BLOCK,
+            budget: rlg_train::protocol::SUPPORT_VECTORS,
+            grid: Grid::default(),
+            rate_tau_s: rlg_train::protocol::RATE_TAU_S,
+        }
+    }
+}
+
+/// The result of [`calibrate_static`].
+#[derive(Clone, Debug)]
+pub struct StaticCalibration {
+    /// Points trained on: (T °C, output °/h).
+    pub points: Vec<(f64, f64)>,
+    /// How the points were made, in words.
+    pub points_from: String,
+    /// The CV scheme, in words.
+    pub validation: String,
+    /// Chosen polynomial degree and the CV RMS of degrees 1 … [`MAX_POLY_DEGREE`], °/h.
+    pub poly_degree: usize,
+    /// See [`StaticCalibration::poly_degree`].
+    pub poly_cv_dph: Vec<f64>,
+    /// TRAINING RMS of the polynomial, °/h.
+    pub poly_train_rms_dph: f64,
+    /// The LS-SVM's tuning.
+    pub tuned: Tuned,
+    /// σ, c and CV RMS of the table (the tuning's choice unless its f32 evaluation failed).
+    pub table_point: CvPoint,
+    /// Better-scoring points passed over for f32 precision: (σ, c, departure °/h).
+    pub refused: Vec<(f64, f64, f64)>,
+    /// The board model (features [temp_c]).
+    pub model: ModelFile,
+    /// |f32 − f64| of the board's correction over the trained range, °/h.
+    pub f32_deviation_dph: f64,
+    /// The limit it was held to ([`export::Precision::limit_dph`]), °/h.
+    pub f32_limit_dph: f64,
+    /// Whether the table stores b − reference.
+    pub reference_folded: bool,
+    /// HELD-OUT RMS on the test points (polynomial, LS-SVM), °/h, when a test was given.
+    pub held_out_rms_dph: Option<(f64, f64)>,
+    /// Test points, when given.
+    pub test_points: Vec<(f64, f64)>,
+}
+
+/// The (T, output) points of `rec` (see the module doc).
+pub fn points_of(rec: &Recording, block: usize) -> anyhow::Result<(Vec<(f64, f64)>, String)> {
+    anyhow::ensure!(block >= 1, "--block must be at least 1");
+    let good: Vec<usize> = (0..rec.len())
+        .filter(|&k| rec.temp_c[k].is_finite() && rec.rate_dph[k].is_finite())
+        .collect();
+    anyhow::ensure!(
+        good.len() >= 2,
+        "{} usable rows (finite temperature and rate); a static model needs points at several \
+         temperatures",
+        good.len()
+    );
+    let mut steps: Vec<f64> = rec.time_s.windows(2).map(|w| w[1] - w[0]).collect();
+    steps.sort_by(f64::total_cmp);
+    let dt = steps.get(steps.len() / 2).copied().unwrap_or(1.0);
+    if dt > 1.1 {
+        let pts = good
+            .iter()
+            .map(|&k| (rec.temp_c[k], rec.rate_dph[k]))
+            .collect();
+        return Ok((
+            pts,
+            format!("each row a point (a row every {dt:.0} s: burst or plateau means)"),
+        ));
+    }
+    let pts: Vec<(f64, f64)> = good
+        .chunks_exact(block)
+        .map(|c| {
+            let n = c.len() as f64;
+            (
+                c.iter().map(|&k| rec.temp_c[k]).sum::<f64>() / n,
+                c.iter().map(|&k| rec.rate_dph[k]).sum::<f64>() / n,
+            )
+        })
+        .collect();
+    Ok((pts, format!("means of {block} samples of a 1 Hz stream")))
+}
+
+fn validation_for(n: usize) -> Validation {
+    if n < 25 {
+        Validation::LeaveOneOut
+    } else {
+        Validation::Blocked {
+            block: (n / 25).max(1),
+            folds: 5,
+        }
+    }
+}
+
+/// Largest number of points the static grid search solves exactly.
+pub const MAX_POINTS: usize = 4000;
+
+fn log_space(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    let (a, b) = (lo.ln(), hi.ln());
+    (0..n)
+        .map(|i| (a + (b - a) * i as f64 / (n.max(2) - 1) as f64).exp())
+        .collect()
+}
+
+/// σ and c of the LS-SVM with a linear trend in T ([`train_with_trend`]) by CV over the coarse
+/// grid (in parallel); the choice is the most regularised point within [`PARSIMONY`] of the
+/// best, as [`rlg_train::lssvm::tune::tune`] chooses.
+#[allow(clippy::too_many_arguments)]
+fn tune_with_trend(
+    names: &[String],
+    x: &[Vec<f64>],
+    y: &[f64],
+    folds: &[Vec<usize>],
+    validation: &Validation,
+    grid: &Grid,
+    budget: usize,
+    progress: &ProgressBar,
+) -> Tuned {
+    use rayon::prelude::*;
+    let n = x.len();
+    let pairs: Vec<(f64, f64)> = log_space(grid.sigma.0, grid.sigma.1, grid.sigma_points)
+        .into_iter()
+        .flat_map(|s| {
+            log_space(grid.c.0, grid.c.1, grid.c_points)
+                .into_iter()
+                .map(move |c| (s, c))
+        })
+        .collect();
+    progress.set_length(pairs.len() as u64);
+    let curve: Vec<CvPoint> = pairs
+        .par_iter()
+        .map(|&(sigma, c)| {
+            let mut ss = 0.0;
+            let mut count = 0usize;
+            let mut ok = true;
+            for f in folds {
+                let mut out = vec![false; n];
+                for &i in f {
+                    out[i] = true;
+                }
+                let tr: Vec<usize> = (0..n).filter(|&i| !out[i]).collect();
+                let xs: Vec<Vec<f64>> = tr.iter().map(|&i| x[i].clone()).collect();
+                let ys: Vec<f64> = tr.iter().map(|&i| y[i]).collect();
+                match train_with_trend(names, &xs, &ys, sigma, c, budget, &[true]) {
+                    Ok(m) => {
+                        for &i in f {
+                            ss += (y[i] - m.predict(&x[i])).powi(2);
+                            count += 1;
+                        }
+                    }
+                    Err(_) => ok = false,
+                }
+            }
+            progress.inc(1);
+            CvPoint {
+                sigma,
+                c,
+                cv_rms_dph: if ok && count > 0 {
+                    (ss / count as f64).sqrt()
+                } else {
+                    f64::NAN
+                },
+            }
+        })
+        .collect();
+    let best = curve
+        .iter()
+        .map(|p| p.cv_rms_dph)
+        .filter(|v| v.is_finite())
+        .fold(f64::INFINITY, f64::min);
+    let choice = curve
+        .iter()
+        .filter(|p| p.cv_rms_dph <= best * (1.0 + PARSIMONY))
+        .min_by(|a, b| a.c.total_cmp(&b.c).then(b.sigma.total_cmp(&a.sigma)))
+        .copied()
+        .unwrap_or(CvPoint {
+            sigma: f64::NAN,
+            c: f64::NAN,
+            cv_rms_dph: f64::NAN,
+        });
+    Tuned {
+        sigma: choice.sigma,
+        c: choice.c,
+        cv_rms_dph: choice.cv_rms_dph,
+        curve,
+        refined: Vec::new(),
+        validation: validation.describe(),
+    }
+}
+
+/// Fits and checks the temperature-only model (see the module doc).
+pub fn calibrate_static(
+    cal: &Recording,
+    test: Option<&Recording>,
+    opts: &StaticOptions,
+    provenance: &Provenance,
+    progress: &ProgressBar,
+) -> anyhow::Result<StaticCalibration> {
+    anyhow::ensure!(
+        (1..=crate::MAX_BUDGET).contains(&opts.budget),
+        "--budget {}: the board table holds 1 to {} support vectors",
+        opts.budget,
+        crate::MAX_BUDGET
+    );
+    let (points, points_from) = points_of(cal, opts.block)?;
+    let n = points.len();
+    let (lo, hi) = points
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(p.0), b.max(p.0))
+        });
+    anyhow::ensure!(
+        hi - lo >= 1.0,
+        "the points span {:.2} °C of temperature; a temperature model needs a sweep of at \
+         least 1 °C",
+        hi - lo
+    );
+    anyhow::ensure!(
+        n >= 5,
+        "{n} points; a static model needs at least 5 (tuning leaves some out)"
+    );
+    let x: Vec<Vec<f64>> = points.iter().map(|p| vec![p.0]).collect();
+    let y: Vec<f64> = points.iter().map(|p| p.1).collect();
+    let t: Vec<f64> = points.iter().map(|p| p.0).collect();
+    let names = vec![Feature::TempC.name().to_string()];
+    let validation = validation_for(n);
+    let folds = match &validation {
+        Validation::LeaveOneOut => (0..n).map(|i| vec![i]).collect(),
+        v => fold_indices(v, n)?,
+    };
+    anyhow::ensure!(
+        n <= MAX_POINTS,
+        "{n} points; the static model's grid search solves exactly on up to {MAX_POINTS}: \
+         average more samples per point with a larger --block"
+    );
+    let tuned = tune_with_trend(
+        &names,
+        &x,
+        &y,
+        &folds,
+        &validation,
+        &opts.grid,
+        opts.budget,
+        progress,
+    );
+    progress.finish_and_clear();
+
+    let fit = |idx: &[usize], d: usize| {
+        let xs: Vec<f64> = idx.iter().map(|&i| t[i]).collect();
+        let ys: Vec<f64> = idx.iter().map(|&i| y[i]).collect();
+        PolyFit::fit(&xs, &ys, d).ok()
+    };
+    let poly_cv_dph: Vec<f64> = (1..=MAX_POLY_DEGREE)
+        .map(|d| {
+            let mut ss = 0.0;
+            let mut count = 0usize;
+            for f in &folds {
+                let tr: Vec<usize> = (0..n).filter(|i| !f.contains(i)).collect();
+                let Some(p) = fit(&tr, d) else {
+                    return f64::NAN;
+                };
+                for &i in f {
+                    ss += (y[i] - p.predict(t[i])).powi(2);
+                    count += 1;
+                }
+            }
+            (ss / count.max(1) as f64).sqrt()
+        })
+        .collect();
+    let best = poly_cv_dph
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(f64::INFINITY, f64::min);
+    anyhow::ensure!(best.is_finite(), "no polynomial in T could be fitted");
+    let poly_degree = 1 + poly_cv_dph
+        .iter()
+        .position(|v| *v <= best * (1.0 + PARSIMONY))
+        .unwrap_or(0);
+    let all: Vec<usize> = (0..n).collect();
+    let poly =
+        fit(&all, poly_degree).ok_or_else(|| anyhow::anyhow!("the polynomial did not fit"))?;
+    let poly_train: Vec<f64> = (0..n).map(|i| y[i] - poly.predict(t[i])).collect();
+
+    // The table: the CV choice, or the best-scoring grid point whose f32 evaluation meets the
+    // export limit.
+    let mut order: Vec<CvPoint> = tuned
+        .curve
+        .iter()
+        .filter(|p| p.cv_rms_dph.is_finite())
+        .copied()
+        .collect();
+    anyhow::ensure!(
+        !order.is_empty(),
+        "no (σ, c) of the grid could be trained on every fold"
+    );
+    order.sort_by(|a, b| a.cv_rms_dph.total_cmp(&b.cv_rms_dph));
+    order.insert(
+        0,
+        CvPoint {
+            sigma: tuned.sigma,
+            c: tuned.c,
+            cv_rms_dph: tuned.cv_rms_dph,
+        },
+    );
+    let mut refused = Vec::new();
+    let mut chosen = None;
+    for p in order {
+        let lssvm = train_with_trend(&names, &x, &y, p.sigma, p.c, opts.budget, &[true])?;
+        // The board runs at 1 Hz whatever the spacing of the points.
+        let model = ModelFile::from_trained(
+            lssvm,
+            &x,
+            &y,
+            opts.rate_tau_s,
+            1.0,
+            None,
+            provenance.clone(),
+        )?;
+        let prec = export::precision(&model)?;
+        let dev = prec.deviation_dph;
+        if dev <= prec.limit_dph {
+            chosen = Some((p, model, prec));
+            break;
+        }
+        refused.push((p.sigma, p.c, dev));
+    }
+    let Some((point, model, prec)) = chosen else {
+        anyhow::bail!(
+            "no (σ, c) of the grid gives a board table within the f32 limit of {:.0e} °/h \
+             (smallest departure {:.2e} °/h); lower --c-min",
+            export::EXPORT_LIMIT_DPH,
+            refused.iter().map(|r| r.2).fold(f64::INFINITY, f64::min)
+        );
+    };
+
+    let (test_points, held_out_rms_dph) = match test {
+        Some(r) => {
+            let (tp, _) = points_of(r, opts.block)?;
+            let e = |f: &dyn Fn(f64) -> f64| {
+                rms(&tp.iter().map(|(t, y)| y - f(*t)).collect::<Vec<_>>()).unwrap_or(f64::NAN)
+            };
+            let held = (e(&|t| poly.predict(t)), e(&|t| model.predict_dph(&[t])));
+            (tp, Some(held))
+        }
+        None => (Vec::new(), None),
+    };
+    Ok(StaticCalibration {
+        points,
+        points_from,
+        validation: match validation {
+            Validation::LeaveOneOut => "leave-one-out (fewer than 25 points)".to_string(),
+            v => v.describe(),
+        },
+        poly_degree,
+        poly_train_rms_dph: rms(&poly_train).unwrap_or(f64::NAN),
+        poly_cv_dph,
+        reference_folded: export::folds_reference(model.reference_dph),
+        tuned,
+        table_point: point,
+        refused,
+        model,
+        f32_deviation_dph: prec.deviation_dph,
+        f32_limit_dph: prec.limit_dph,
+        held_out_rms_dph,
+        test_points,
+    })
+}

@@ -1,0 +1,115 @@
+//! Calibration on synthetic chamber runs (no simulator: the product crate does not use the
+//! lab); the end-to-end tests on simulated gyros are in `tests/lab`.
+
+use super::*;
+
+/// A chamber run: `cycles` trapezoids between `lo` and `hi` °C at `ramp` °C/min with `hold_s`
+/// holds, 1 Hz, bias = a quadratic in T + a dT/dt term + white noise of `noise` °/h.
+pub(crate) fn chamber(cycles: usize, noise: f64, seed: u64) -> Recording {
+    let (lo, hi, ramp, hold_s) = (-10.0, 50.0, 1.0, 3600.0);
+    let ramp_s = (hi - lo) / ramp * 60.0;
+    let period = 2.0 * (ramp_s + hold_s);
+    let n = (cycles as f64 * period + hold_s) as usize;
+    let mut state = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    let mut gauss = move || {
+        // Sum of 12 uniforms: a cheap, deterministic near-Gaussian.
+        let mut s = 0.0;
+        for _ in 0..12 {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            s += (state >> 11) as f64 / (1u64 << 53) as f64;
+        }
+        s - 6.0
+    };
+    let mut rec = Recording::default();
+    let mut t_prev = lo;
+    for k in 0..n {
+        let t = k as f64;
+        let p = (t - hold_s / 2.0).rem_euclid(period);
+        let temp = if t < hold_s / 2.0 || p < hold_s / 2.0 {
+            lo
+        } else if p < hold_s / 2.0 + ramp_s {
+            lo + (p - hold_s / 2.0) / 60.0 * ramp
+        } else if p < hold_s * 1.5 + ramp_s {
+            hi
+        } else if p < hold_s * 1.5 + 2.0 * ramp_s {
+            hi - (p - hold_s * 1.5 - ramp_s) / 60.0 * ramp
+        } else {
+            lo
+        };
+        let dtdt = temp - t_prev;
+        t_prev = temp;
+        let bias = -7.1 + 2e-4 * (temp - 20.0) - 1.5e-5 * (temp - 20.0).powi(2) + 0.3 * dtdt;
+        rec.time_s.push(t);
+        rec.temp_c.push(temp);
+        rec.rate_dph.push(bias + noise * gauss());
+    }
+    rec
+}
+
+fn provenance() -> Provenance {
+    Provenance::from_bytes("synthetic.csv", b"synthetic", "rlg calibrate (test)")
+}
+
+#[test]
+fn three_cycles_train_on_two_by_leave_one_cycle_out_and_beat_raw() {
+    let rec = chamber(3, 0.002, 1);
+    let c = calibrate(
+        &rec,
+        None,
+        &Options::default(),
+        &provenance(),
+        &ProgressBar::hidden(),
+    )
+    .unwrap();
+    assert_eq!(c.split.held_out, HeldOut::Cycles { train: 2, test: 1 });
+    assert_eq!(c.split.cv_groups, 2, "{}", c.split.validation);
+    let b = |n: &str| c.row(n).unwrap().held_out.as_ref().unwrap().stability_dph;
+    assert!(b(LSSVM) < 0.5 * b(RAW), "{} vs {}", b(LSSVM), b(RAW));
+    assert!(b(BOARD) < 0.5 * b(RAW), "{} vs {}", b(BOARD), b(RAW));
+    assert!(c.board.f32_deviation_dph <= c.board.f32_limit_dph);
+}
+
+#[test]
+fn one_cycle_has_no_held_out_data_and_says_so() {
+    let rec = chamber(1, 0.002, 2);
+    let c = calibrate(
+        &rec,
+        None,
+        &Options::default(),
+        &provenance(),
+        &ProgressBar::hidden(),
+    )
+    .unwrap();
+    assert_eq!(c.split.held_out, HeldOut::Nothing);
+    assert!(c.rows.iter().all(|r| r.held_out.is_none()));
+    assert!(c.row(LSSVM).unwrap().cv_rms_dph.is_some());
+    assert!(c.notes.iter().any(|n| n.contains("No held-out data")));
+}
+
+#[test]
+fn a_bursty_log_is_refused_for_a_dynamic_model_with_the_reason() {
+    let mut rec = chamber(1, 0.002, 3);
+    rec = Recording {
+        time_s: rec.time_s.iter().step_by(300).copied().collect(),
+        rate_dph: rec.rate_dph.iter().step_by(300).copied().collect(),
+        temp_c: rec.temp_c.iter().step_by(300).copied().collect(),
+        ..Recording::default()
+    };
+    let e = calibrate(
+        &rec,
+        None,
+        &Options::default(),
+        &provenance(),
+        &ProgressBar::hidden(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("not a continuous 1 Hz stream") && e.contains("--static"),
+        "{e}"
+    );
+}

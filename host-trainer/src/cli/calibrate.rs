@@ -1,0 +1,180 @@
+//! `rlg calibrate`: a chamber recording (and optionally a later test recording) to a tuned
+//! board table, the comparison with the baselines, and a report folder.
+
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+
+use rlg_calibrate::report::{self, FileInfo, Inputs};
+use rlg_calibrate::static_cal::{calibrate_static, StaticOptions};
+use rlg_calibrate::{calibrate, Options};
+use rlg_io::progress::progress;
+use rlg_train::model::Provenance;
+
+/// Arguments of `rlg calibrate`.
+#[derive(Debug, Args)]
+pub struct CalibrateArgs {
+    /// The calibration recording (time_s, rate_dph, temp_c; a continuous 1 Hz stream, or
+    /// burst / plateau means with --static).
+    #[arg(long, value_name = "FILE")]
+    pub recording: PathBuf,
+    /// A later recording of the same gyro, held out entirely (otherwise the later temperature
+    /// cycles of --recording are held out).
+    #[arg(long, value_name = "FILE")]
+    pub test: Option<PathBuf>,
+    /// Units of the recordings' columns.
+    #[command(flatten)]
+    pub units: super::UnitArgs,
+    /// Output folder: report.md, summary.json, PNG figures, model.json, table.rs, table.h.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Support vectors of the board table (its capacity).
+    #[arg(long, value_name = "M", default_value_t = rlg_train::protocol::SUPPORT_VECTORS as u64,
+          value_parser = clap::value_parser!(u64).range(1..=rlg_calibrate::MAX_BUDGET as u64))]
+    pub budget: u64,
+    /// Temperature cycles of --recording that train [default: half of them, rounded up,
+    /// leaving at least one held out].
+    #[arg(long, value_name = "N", conflicts_with = "test")]
+    pub train_cycles: Option<usize>,
+    /// Window of the bias stability, samples at 1 Hz (100: the 100 s stability).
+    #[arg(long, value_name = "S", default_value_t = 100,
+          value_parser = clap::value_parser!(u64).range(2..=100_000))]
+    pub window: u64,
+    /// Train on means of N samples (100: the paper's 100 s means; 1: raw 1 Hz).
+    #[arg(long, value_name = "N", default_value_t = rlg_train::protocol::TRAIN_BLOCK as u64,
+          value_parser = clap::value_parser!(u64).range(1..=3600))]
+    pub block: u64,
+    /// Use samples from this time on, s.
+    #[arg(long, value_name = "S")]
+    pub from_s: Option<f64>,
+    /// Use samples up to this time, s.
+    #[arg(long, value_name = "S")]
+    pub to_s: Option<f64>,
+    /// Time constant of the board's dT/dt estimator, s.
+    #[arg(long, value_name = "S", default_value_t = rlg_train::protocol::RATE_TAU_S)]
+    pub rate_tau_s: f64,
+    /// Smallest c of the tuning grid (lower it when no c meets the board's f32 limit).
+    #[arg(long, value_name = "C", default_value_t = 0.1)]
+    pub c_min: f64,
+    /// Static characterisation: a temperature-only model from burst or plateau means (a
+    /// bursty log has no 1 Hz stream, so no dT/dt model).
+    #[arg(long = "static")]
+    pub static_only: bool,
+}
+
+fn file_info(path: &Path, samples: usize) -> anyhow::Result<FileInfo> {
+    let p = Provenance::from_file(path, "")?;
+    Ok(FileInfo {
+        file: p.data_file,
+        sha256: p.data_sha256,
+        samples,
+    })
+}
+
+/// Runs `rlg calibrate`.
+pub fn run(a: &CalibrateArgs, command_line: &str) -> anyhow::Result<()> {
+    // The folder first: a path that cannot hold it fails before minutes of work.
+    report::prepare_dir(&a.out)?;
+    anyhow::ensure!(
+        a.c_min > 0.0 && a.c_min.is_finite(),
+        "--c-min {}: c must be positive",
+        a.c_min
+    );
+    let cal = super::read_recording(&a.recording, &a.units)?;
+    let test = match &a.test {
+        Some(p) => Some(super::read_recording(p, &a.units)?),
+        None => None,
+    };
+    let inputs = Inputs {
+        command: command_line.to_string(),
+        recording: file_info(&a.recording, cal.len())?,
+        test_recording: match (&a.test, &test) {
+            (Some(p), Some(t)) => Some(file_info(p, t.len())?),
+            _ => None,
+        },
+    };
+    let provenance = Provenance::from_file(&a.recording, command_line)?;
+    let mut grid = rlg_train::lssvm::tune::Grid::default();
+    anyhow::ensure!(
+        a.c_min < grid.c.1,
+        "--c-min {} is above the grid's largest c {}",
+        a.c_min,
+        grid.c.1
+    );
+    grid.c.0 = a.c_min;
+    if a.static_only {
+        let opts = StaticOptions {
+            block: a.block as usize,
+            budget: a.budget as usize,
+            grid,
+            rate_tau_s: a.rate_tau_s,
+        };
+        let c = calibrate_static(
+            &cal,
+            test.as_ref(),
+            &opts,
+            &provenance,
+            &progress("tuning σ, c (static)"),
+        )?;
+        let files = report::write_static(&c, &inputs, &a.out)?;
+        let s = report::static_summary(&c, &inputs, &[]);
+        for m in &s.models {
+            println!(
+                "{:<18} TRAINING rms {:.3e}  CV rms {}  HELD-OUT rms {}",
+                m.name,
+                m.train_rms_dph.unwrap_or(f64::NAN),
+                m.cv_rms_dph.map_or("—".into(), |v| format!("{v:.3e}")),
+                m.held_out
+                    .as_ref()
+                    .map_or("— (no --test)".into(), |h| format!(
+                        "{:.3e}",
+                        h.stability_dph
+                    ))
+            );
+        }
+        println!("wrote {} files to {}", files.len(), a.out.display());
+        return Ok(());
+    }
+    let opts = Options {
+        train_cycles: a.train_cycles,
+        window: a.window as usize,
+        block: a.block as usize,
+        budget: a.budget as usize,
+        rate_tau_s: a.rate_tau_s,
+        grid,
+        from_s: a.from_s,
+        to_s: a.to_s,
+        ..Options::default()
+    };
+    let c = calibrate(
+        &cal,
+        test.as_ref(),
+        &opts,
+        &provenance,
+        &progress("tuning σ, c"),
+    )?;
+    let files = report::write(&c, &inputs, &a.out)?;
+    let md = report::markdown(&c, &inputs);
+    // The comparison table and the notes, as in report.md.
+    if let Some(start) = md.find("## Comparison") {
+        let end = md[start..]
+            .find("## Allan")
+            .or_else(|| md[start..].find("## Board"))
+            .map_or(md.len(), |e| start + e);
+        print!("{}", &md[start..end]);
+    }
+    for n in &c.notes {
+        println!("note: {n}");
+    }
+    println!(
+        "board table: σ = {:.4}, c = {:.4}, {} vectors, f32 within {:.1e} °/h",
+        c.board.sigma, c.board.c, c.board.support_vectors, c.board.f32_deviation_dph
+    );
+    println!(
+        "wrote {} files to {} (report: {})",
+        files.len(),
+        a.out.display(),
+        a.out.join("report.md").display()
+    );
+    Ok(())
+}
