@@ -152,8 +152,10 @@ impl Family {
             Family::Backscatter => log_grid(1.0, (range / 1.5).clamp(1.5, 40.0), 60),
             Family::Periodic => {
                 // Uniform in frequency, a third of the record's resolution 1/duration, from
-                // two periods per record to 400 s (100 s means pass periods above 200 s).
-                let (f0, f1, df) = (2.0 / dur, 1.0 / 400.0, 1.0 / (3.0 * dur));
+                // two periods per record to four blocks (block means pass periods above two
+                // blocks): at most 0.75 points per block.
+                let block_s = prep.block as f64 * prep.dt_s;
+                let (f0, f1, df) = (2.0 / dur, 1.0 / (4.0 * block_s), 1.0 / (3.0 * dur));
                 let n = ((f1 - f0) / df).floor().max(0.0) as usize + 1;
                 (0..n).map(|k| vec![1.0 / (f0 + k as f64 * df)]).collect()
             }
@@ -213,6 +215,30 @@ impl Family {
             Family::Heteroscedastic => Term::Heteroscedastic { k: a, ref_c: nl[0] },
             Family::TempQuantization => Term::TempQuantization { step_c: nl[0] },
         }
+    }
+
+    /// The block means of [`Family::columns`]. For a periodic term in time they are summed in
+    /// closed form (a sampled sinusoid's block sum is a geometric series), which keeps the
+    /// periodic grid, thousands of periods on a long record, from costing a sine per sample
+    /// and period; the other families average their per-sample columns.
+    pub fn block_columns(
+        self,
+        nl: &[f64],
+        prep: &Prepared,
+        model: &PhysicsModel,
+        model_drive: &DriveSeries,
+        beta: &[f64],
+    ) -> Result<Vec<Vec<f64>>, DiagnoseError> {
+        if self == Family::Periodic {
+            if let Some(c) = periodic_block_columns(nl[0], prep) {
+                return Ok(c);
+            }
+        }
+        Ok(self
+            .columns(nl, prep, model, model_drive, beta)?
+            .iter()
+            .map(|v| prep.blocks(v))
+            .collect())
     }
 
     /// Unit-amplitude columns (°/h per unit of each linear parameter) over the fitted samples.
@@ -281,6 +307,37 @@ impl Family {
     }
 }
 
+/// Block means of sin(ωt) and cos(ωt), ω = 2π/`period_s`, over the fitted samples, in closed
+/// form: for m samples t₀ + k·dt, Σ sin(a + kθ) = sin(a + (m−1)θ/2)·sin(mθ/2)/sin(θ/2) with
+/// a = ωt₀, θ = ω·dt (and cos likewise). `None` when a block's samples are not evenly spaced
+/// (then the per-sample columns are averaged) or θ is a multiple of 2π.
+fn periodic_block_columns(period_s: f64, prep: &Prepared) -> Option<Vec<Vec<f64>>> {
+    let t = &prep.drive.t_s;
+    let m = prep.block;
+    let w = std::f64::consts::TAU / period_s;
+    let theta = w * prep.dt_s;
+    let half = (0.5 * theta).sin();
+    if half.abs() < 1e-9 {
+        return None;
+    }
+    let gain = (0.5 * m as f64 * theta).sin() / (half * m as f64);
+    let nb = prep.nb();
+    let (mut s, mut c) = (Vec::with_capacity(nb), Vec::with_capacity(nb));
+    for b in 0..nb {
+        let (t0, t1) = (t[b * m], t[b * m + m - 1]);
+        if ((t1 - t0) - (m - 1) as f64 * prep.dt_s).abs() > 1e-6 * prep.dt_s * m as f64 {
+            return None;
+        }
+        // The phase of the block's centre, reduced before the sine so a long record keeps
+        // full precision.
+        let centre = (w * (0.5 * (t0 + t1))).rem_euclid(std::f64::consts::TAU);
+        let (sn, cs) = centre.sin_cos();
+        s.push(sn * gain);
+        c.push(cs * gain);
+    }
+    Some(vec![s, c])
+}
+
 trait WithPhase {
     fn with_phase(self, phase: f64) -> Term;
 }
@@ -322,4 +379,56 @@ pub(crate) fn quantiles(x: &[f64], a: f64, b: f64) -> (f64, f64) {
     }
     let q = |p: f64| s[((p * (s.len() - 1) as f64).round() as usize).min(s.len() - 1)];
     (q(a), q(b))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::prepare::{block_samples, prepare, MAX_BLOCKS};
+    use rlg_io::recording::Recording;
+
+    fn recording(n: usize) -> Recording {
+        Recording {
+            time_s: (0..n).map(|k| 1000.0 + k as f64).collect(),
+            temp_c: (0..n)
+                .map(|k| 20.0 + 10.0 * (k as f64 / 7200.0).sin())
+                .collect(),
+            rate_dph: vec![-7.1; n],
+            ..Recording::default()
+        }
+    }
+
+    /// The closed-form block means of the periodic columns are the block means of the
+    /// per-sample columns, for periods from four blocks to the record's length.
+    #[test]
+    fn periodic_block_columns_are_the_block_means_of_the_samples() {
+        let prep = prepare(&recording(60_000)).unwrap();
+        let model = PhysicsModel::paper();
+        for period in [400.0, 777.7, 5_000.0, 59_000.0] {
+            let fast = periodic_block_columns(period, &prep).unwrap();
+            let slow: Vec<Vec<f64>> = Family::Periodic
+                .columns(&[period], &prep, &model, &prep.drive, &[])
+                .unwrap()
+                .iter()
+                .map(|v| prep.blocks(v))
+                .collect();
+            for (f, s) in fast.iter().zip(&slow) {
+                let worst = f
+                    .iter()
+                    .zip(s)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max);
+                assert!(worst < 1e-12, "period {period}: {worst:e}");
+            }
+        }
+    }
+
+    /// A record longer than MAX_BLOCKS 100 s blocks is averaged over whole multiples of 100 s.
+    #[test]
+    fn long_records_get_longer_blocks() {
+        assert_eq!(block_samples(100 * MAX_BLOCKS, 1.0), 100);
+        assert_eq!(block_samples(100 * MAX_BLOCKS + 1, 1.0), 200);
+        assert_eq!(block_samples(2_678_400, 1.0), 700);
+        assert_eq!(block_samples(2 * 2_678_400, 0.5), 1400);
+    }
 }

@@ -386,6 +386,22 @@ impl Prepared {
 /// Minimum number of 100 s blocks for a diagnosis (about 5.5 h).
 pub const MIN_BLOCKS: usize = 200;
 
+/// Most blocks a diagnosis works on (4.6 days of 100 s blocks). A longer record is averaged
+/// over longer blocks, whole multiples of [`BLOCK_S`], so that the work on block means (the
+/// scan, the bootstrap, the noise fit) and the periodic grid, whose resolution follows the
+/// record's length, stay bounded: time and memory then grow with the record only through the
+/// per-sample columns. Slow effects keep their power (a 30-day record in 700 s blocks still
+/// has 3 700 of them); effects faster than a block were already beyond 100 s means.
+pub const MAX_BLOCKS: usize = 4000;
+
+/// Samples per block for `n` samples `dt_s` apart: [`BLOCK_S`], or the smallest whole
+/// multiple of it that keeps the record within [`MAX_BLOCKS`] blocks.
+pub fn block_samples(n: usize, dt_s: f64) -> usize {
+    let base = (BLOCK_S / dt_s).round().max(1.0) as usize;
+    let k = n.div_ceil(base * MAX_BLOCKS).max(1);
+    base * k
+}
+
 /// Prepares a recording: computes dT/dt by a centred difference, drops the first 30 s and any
 /// partial last block.
 pub fn prepare(rec: &Recording) -> Result<Prepared, DiagnoseError> {
@@ -398,7 +414,7 @@ pub fn prepare(rec: &Recording) -> Result<Prepared, DiagnoseError> {
     }
     let dt_s = (rec.time_s[n - 1] - rec.time_s[0]) / (n - 1) as f64;
     let rate_all = estimate_rate(&rec.temp_c, &rec.time_s, dt_s)?;
-    let block = (BLOCK_S / dt_s).round().max(1.0) as usize;
+    let block = block_samples(n, dt_s);
     // The first and last ±30 s have one-sided differences; the start is dropped (the end is
     // usually cut by the partial last block).
     let skip = ((RATE_HALF_WIDTH_S / dt_s).ceil() as usize).min(n);

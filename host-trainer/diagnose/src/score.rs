@@ -94,7 +94,12 @@ fn cross_validate_by(prep: &Prepared, cols1: &[Vec<f64>], k: usize, fold: &[usiz
     HeldOut {
         figures: Figures {
             rms_dph: rms(&resid1).unwrap_or(0.0),
-            b100_dph: bias_stability_dph(&resid1, prep.block).unwrap_or(0.0),
+            // 100 s windows whatever the block length of a long record.
+            b100_dph: bias_stability_dph(
+                &resid1,
+                (super::prepare::BLOCK_S / prep.dt_s).round().max(1.0) as usize,
+            )
+            .unwrap_or(0.0),
             bic: n * (rss / n).max(1e-300).ln() + k as f64 * n.ln(),
         },
         rss_b: rss,

@@ -56,16 +56,27 @@ pub(crate) fn run(
     let mut points: Vec<Point> = specs
         .into_par_iter()
         .map(|(family, nl)| {
-            let c = family.columns(&nl, prep, model, &mdrive, &beta_b)?;
             Ok(Point {
                 family,
-                cols_b: c.iter().map(|v| prep.blocks(v)).collect(),
+                cols_b: family.block_columns(&nl, prep, model, &mdrive, &beta_b)?,
                 nl,
             })
         })
         .collect::<Result<_, DiagnoseError>>()?;
     // The noise-scale family: one point with no mean column, its ΔBIC from the variance test.
     let mut notes = Vec::new();
+    let block_s = prep.block as f64 * prep.dt_s;
+    if block_s > super::prepare::BLOCK_S * 1.5 {
+        notes.push(format!(
+            "the record is {:.1} days long: it is analysed as {} means of {block_s:.0} s (at \
+             most {} blocks) instead of 100 s means, and periodic terms are searched down to \
+             periods of {:.0} s",
+            prep.nb() as f64 * block_s / 86_400.0,
+            prep.nb(),
+            super::prepare::MAX_BLOCKS,
+            4.0 * block_s
+        ));
+    }
     let quantum = output_quantum(&prep.rate_dph);
     if let Some(q) = quantum {
         notes.push(format!(
@@ -120,7 +131,6 @@ pub(crate) fn run(
     // white level and bias instability first; when that model fails the residual's own
     // Allan check (slow wander the bank does not describe), rate random walk is added. The
     // 1 Hz Allan fit and its recalibration remain for records too long for the dense REML.
-    let block_s = prep.block as f64 * prep.dt_s;
     let check = |g: &NoiseParams| allan_check(g, &resid_b, block_s, |x| ols.residual(x), opts.seed);
     let fitted = reml_noise(&base_b, &prep.y_b, prep.block, prep.dt_s, false).map(|g| {
         let c = check(&g);
