@@ -544,6 +544,76 @@ fn allan_of(v: &[f64]) -> Vec<AdevCi> {
     overlapping_adev_ci(v, 1.0, &octave_clusters(v.len()), CONFIDENCE_1SIGMA)
 }
 
+/// The CV scheme of the tuning means (100 s means up to `to_s`): leave one cycle out when
+/// the span holds two or more of `cycles`, else blocked CV within the one
+/// ([`rlg_train::protocol::CV`]); with the number of groups (1 for blocked).
+fn validation_of(
+    rec: &Recording,
+    series: &FeatureSeries,
+    cycles: &[(f64, f64)],
+    to_s: f64,
+    n_tune: usize,
+) -> anyhow::Result<(Validation, usize)> {
+    let mut out = (CV, 1);
+    if cycles.len() >= 2 {
+        let labels = cycle_labels(rec, series, to_s, TRAIN_BLOCK, cycles);
+        anyhow::ensure!(
+            labels.len() == n_tune,
+            "internal: {} cycle labels for {n_tune} tuning means",
+            labels.len()
+        );
+        let mut distinct = labels.clone();
+        distinct.dedup();
+        if distinct.len() >= 2 {
+            out = (Validation::Groups(labels), distinct.len());
+        }
+    }
+    anyhow::ensure!(
+        fold_indices(&out.0, n_tune).is_ok(),
+        "the training span holds {n_tune} means of {TRAIN_BLOCK} s; tuning needs at least 50 \
+         (about 1.4 h at 1 Hz after the dT/dt warm-up)"
+    );
+    Ok(out)
+}
+
+/// σ and c of an exact LS-SVM on [T, dT/dt] for the span `[from_s, to_s]` of `rec`, by the
+/// calibration's CV (whole cycles when the span holds two or more, see [`calibrate`]) on its
+/// 100 s means: what `rlg train` uses when σ and c are not given.
+pub fn tune_recording(
+    rec: &Recording,
+    from_s: Option<f64>,
+    to_s: Option<f64>,
+    rate_tau_s: f64,
+    grid: &Grid,
+    progress: &ProgressBar,
+) -> anyhow::Result<Tuned> {
+    let rec = window_of(rec, from_s, to_s)?;
+    let dt = check_stream(&rec, "the recording")?;
+    let series = features_of(&rec, rate_tau_s, dt)?;
+    let cycles = cycle_spans(&rec.time_s, &rec.temp_c);
+    let data = dataset::from_recording(
+        &rec,
+        &RecordingSelection {
+            from_s: None,
+            to_s: None,
+            block: TRAIN_BLOCK,
+            rate_tau_s,
+        },
+    )?;
+    let t_end = *rec.time_s.last().unwrap_or(&0.0);
+    let (validation, _) = validation_of(&rec, &series, &cycles, t_end, data.x.len())?;
+    let tuned = tune(
+        &data.features,
+        &data.x,
+        &data.y_dph,
+        &validation,
+        grid,
+        progress,
+    )?;
+    progress.finish_and_clear();
+    Ok(tuned)
+}
+
 /// Runs the calibration (see the module doc). `cal` trains; `test`, when given, is held out.
 /// `progress` follows the σ, c search. `provenance` labels the board table.
 pub fn calibrate(
@@ -611,35 +681,13 @@ pub fn calibrate(
     let tune_data = dataset::from_recording(&cal, &sel(TRAIN_BLOCK))?;
     let n_tune = tune_data.x.len();
 
-    // Folds: whole training cycles when there are two or more, else blocked within the one.
-    let (validation, cv_groups) = if train_cycles >= 2 {
-        let labels = cycle_labels(
-            &cal,
-            &series,
-            train_end.min(t_end),
-            TRAIN_BLOCK,
-            &cycles[..train_cycles],
-        );
-        anyhow::ensure!(
-            labels.len() == n_tune,
-            "internal: {} cycle labels for {n_tune} tuning means",
-            labels.len()
-        );
-        let mut distinct = labels.clone();
-        distinct.dedup();
-        if distinct.len() >= 2 {
-            (Validation::Groups(labels), distinct.len())
-        } else {
-            (CV, 1)
-        }
-    } else {
-        (CV, 1)
-    };
-    anyhow::ensure!(
-        fold_indices(&validation, n_tune).is_ok(),
-        "the training span holds {n_tune} means of {TRAIN_BLOCK} s; tuning needs at least 50 \
-         (about 1.4 h at 1 Hz after the dT/dt warm-up)"
-    );
+    let (validation, cv_groups) = validation_of(
+        &cal,
+        &series,
+        &cycles[..train_cycles.min(k)],
+        train_end.min(t_end),
+        n_tune,
+    )?;
     let folds = fold_indices(&validation, n_tune)?;
 
     // The LS-SVM: σ and c by CV, then the model.

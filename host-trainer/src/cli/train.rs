@@ -5,7 +5,10 @@ use std::path::PathBuf;
 use anyhow::Context;
 use clap::Args;
 
+use rlg_io::progress::progress;
 use rlg_train::dataset::{self, RecordingSelection};
+use rlg_train::lssvm::sparse::{train_reduced, Reduction};
+use rlg_train::lssvm::tune::{tune, Grid, Validation};
 use rlg_train::model::{ModelFile, Provenance};
 
 /// Arguments of `rlg train`.
@@ -30,12 +33,17 @@ pub struct TrainArgs {
     /// Average features and targets over blocks of N samples (recording only; the paper: 100).
     #[arg(long, value_name = "N", default_value_t = 1, requires = "recording")]
     pub block: usize,
-    /// Gaussian kernel width σ of Eq. (8), in standardised input units.
-    #[arg(long)]
-    pub sigma: f64,
-    /// Regularisation c of Eq. (9).
-    #[arg(long)]
-    pub c: f64,
+    /// Gaussian kernel width σ of Eq. (8), in standardised input units [default: tuned by
+    /// cross-validation, with --c].
+    #[arg(long, value_name = "SIGMA", requires = "c")]
+    pub sigma: Option<f64>,
+    /// Regularisation c of Eq. (9) [default: tuned by cross-validation, with --sigma].
+    #[arg(long, value_name = "C", requires = "sigma")]
+    pub c: Option<f64>,
+    /// Train a reduced (fixed-size) model of at most M support vectors: memory grows as
+    /// samples × M instead of samples² [default: the exact model].
+    #[arg(long, value_name = "M", value_parser = clap::value_parser!(u64).range(1..=100_000))]
+    pub budget: Option<u64>,
     /// Time constant of the dT/dt estimator, s.
     #[arg(long, value_name = "S", default_value_t = 60.0)]
     pub rate_tau_s: f64,
@@ -50,32 +58,91 @@ pub struct TrainArgs {
 /// Runs `rlg train`.
 pub fn run(a: &TrainArgs, command_line: &str) -> anyhow::Result<()> {
     super::check_output_file(&a.out, "--out")?;
+    let mut rec = None;
     let (path, data) = match (&a.table1, &a.recording) {
         (Some(p), _) => (p, dataset::table1_from_csv(p)?),
         (None, Some(p)) => {
-            let rec = super::read_recording(p, &a.units)?;
+            let r = rec.insert(super::read_recording(p, &a.units)?);
             let sel = RecordingSelection {
                 from_s: a.from_s,
                 to_s: a.to_s,
                 block: a.block,
                 rate_tau_s: a.rate_tau_s,
             };
-            (p, dataset::from_recording(&rec, &sel)?)
+            (p, dataset::from_recording(r, &sel)?)
         }
         (None, None) => anyhow::bail!("give --table1 FILE or --recording FILE"),
     };
     let provenance = Provenance::from_file(path, command_line)?;
-    let m = ModelFile::train(
-        &data.features,
-        &data.x,
-        &data.y_dph,
-        a.sigma,
-        a.c,
-        a.rate_tau_s,
-        data.dt_s,
-        a.loo,
-        provenance,
-    )
+    let (sigma, c) = match (a.sigma, a.c) {
+        (Some(s), Some(c)) => (s, c),
+        _ => {
+            let pb = progress("tuning σ, c");
+            let tuned = match &rec {
+                // Table 1's points are independent: closed-form leave-one-out.
+                None => tune(
+                    &data.features,
+                    &data.x,
+                    &data.y_dph,
+                    &Validation::LeaveOneOut,
+                    &Grid::default(),
+                    &pb,
+                )?,
+                Some(r) => rlg_calibrate::tune_recording(
+                    r,
+                    a.from_s,
+                    a.to_s,
+                    a.rate_tau_s,
+                    &Grid::default(),
+                    &pb,
+                )?,
+            };
+            pb.finish_and_clear();
+            println!(
+                "σ = {:.4}, c = {:.4} by {}: CROSS-VALIDATED RMS {:.4e} °/h",
+                tuned.sigma, tuned.c, tuned.validation, tuned.cv_rms_dph
+            );
+            (tuned.sigma, tuned.c)
+        }
+    };
+    let m = match a.budget {
+        None => ModelFile::train(
+            &data.features,
+            &data.x,
+            &data.y_dph,
+            sigma,
+            c,
+            a.rate_tau_s,
+            data.dt_s,
+            a.loo,
+            provenance,
+        ),
+        Some(budget) => {
+            anyhow::ensure!(
+                !a.loo,
+                "--loo is the exact model's closed-form leave-one-out; drop it with --budget"
+            );
+            let l = train_reduced(
+                &data.features,
+                &data.x,
+                &data.y_dph,
+                sigma,
+                c,
+                budget as usize,
+                Reduction::FIXED_SIZE,
+            )
+            .with_context(|| format!("training on {}", path.display()))?;
+            ModelFile::from_trained(
+                l,
+                &data.x,
+                &data.y_dph,
+                a.rate_tau_s,
+                data.dt_s,
+                None,
+                provenance,
+            )
+        }
+    }
     .with_context(|| format!("training on {}", path.display()))?;
     m.write(&a.out)?;
     let t = &m.training;
@@ -123,8 +190,9 @@ mod tests {
             from_s: None,
             to_s: None,
             block: 1,
-            sigma: 1.0,
-            c: 1e4,
+            sigma: Some(1.0),
+            c: Some(1e4),
+            budget: None,
             rate_tau_s: 60.0,
             loo: true,
             out: model.clone(),

@@ -94,7 +94,8 @@ pub enum LssvmError {
     #[error(
         "{samples} samples is more than the {max} an exact solve holds (its n×n kernel matrix \
          would take {:.1} GB): average blocks of samples (`rlg train --block {}` or more) or \
-         train a reduced model with a support-vector budget (the fixed-size method)",
+         train a reduced model of at most M support vectors (`rlg train --budget 64`: memory \
+         grows as samples × M)",
         12.0 * (*samples as f64).powi(2) / 1e9,
         samples.div_ceil(*max)
     )]

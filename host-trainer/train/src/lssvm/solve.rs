@@ -417,7 +417,10 @@ mod tests {
             "{e:?}"
         );
         let m = e.to_string();
-        assert!(m.contains("--block 8") && m.contains("105.1 GB"), "{m}");
+        assert!(
+            m.contains("--block 8") && m.contains("--budget") && m.contains("105.1 GB"),
+            "{m}"
+        );
         assert!(loo_residuals(&z, &y, 1.0, 10.0).is_err());
     }
 
