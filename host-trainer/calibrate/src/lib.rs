@@ -724,30 +724,49 @@ pub fn calibrate(
         opts.rate_tau_s,
         progress,
     )?;
-    if (board.sigma, board.c) != (tuned.sigma, tuned.c) {
+    let exact_refused = board
+        .refused
+        .iter()
+        .find(|r| (r.0, r.1) == (tuned.sigma, tuned.c));
+    let passed_over = |n: usize| {
+        format!(
+            "{n} better-scoring point(s) of the grid passed over: their tables depart in f32 by \
+             up to {:.2e} °/h",
+            board.refused.iter().map(|r| r.2).fold(0.0, f64::max)
+        )
+    };
+    if let Some(r) = exact_refused {
+        notes.push(format!(
+            "At the LS-SVM's σ = {:.3}, c = {:.3} the {}-vector table's f32 evaluation departs \
+             from its f64 model by {:.2e} °/h (limit {:.1e}); the table uses σ = {:.3}, c = {:.3}, \
+             the best point of the table's own CV that meets the limit (CV rms {:.3e} °/h; {}).",
+            tuned.sigma,
+            tuned.c,
+            board.support_vectors,
+            r.2,
+            board.f32_limit_dph,
+            board.sigma,
+            board.c,
+            board.cv_rms_dph,
+            passed_over(board.refused.len())
+        ));
+    } else if (board.sigma, board.c) != (tuned.sigma, tuned.c) {
         notes.push(format!(
             "The board table uses σ = {:.3}, c = {:.3}, chosen by the CV of the {}-vector table \
              itself (CV rms {:.3e} °/h; at the LS-SVM's σ = {:.3}, c = {:.3} the table scores \
-             {:.3e} °/h).",
+             {:.3e} °/h){}.",
             board.sigma,
             board.c,
             board.support_vectors,
             board.cv_rms_dph,
             tuned.sigma,
             tuned.c,
-            board.exact_choice_cv_rms_dph
-        ));
-    }
-    if let Some(r) = board.refused.first() {
-        notes.push(format!(
-            "{} better-scoring point(s) of the grid were passed over for the board table: their \
-             f32 evaluation departs from the f64 model by up to {:.2e} °/h (limit {:.1e}; first: \
-             σ = {:.3}, c = {:.3}).",
-            board.refused.len(),
-            board.refused.iter().map(|r| r.2).fold(0.0, f64::max),
-            board.f32_limit_dph,
-            r.0,
-            r.1
+            board.exact_choice_cv_rms_dph,
+            if board.refused.is_empty() {
+                String::new()
+            } else {
+                format!("; {}", passed_over(board.refused.len()))
+            }
         ));
     }
 

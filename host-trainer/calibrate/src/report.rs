@@ -716,7 +716,7 @@ pub fn write_static(
     let _ = writeln!(
         md,
         "\nBoard table: {} support vectors on [T]; f32 correction within {:.2e} °/h (limit \
-         {:.0e}){}; reference output {:.4} °/h.\n",
+         {:.1e}){}; reference output {:.4} °/h.\n",
         c.model.lssvm.support.len(),
         c.f32_deviation_dph,
         c.f32_limit_dph,
