@@ -17,34 +17,34 @@ use rlg_train::model::Provenance;
 #[derive(Debug, clap::Args)]
 pub struct CloseLoopArgs {
     /// Calibration recording (CSV).
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     pub recording: PathBuf,
     /// Units of the recordings' columns.
     #[command(flatten)]
     pub units: super::UnitArgs,
     /// A later recording of the same gyro to judge the models on: the diagnosis and the
     /// training then use all of `--recording`. Without it, the later cycles of `--recording`
-    /// are held out (see `--train-to-s`).
-    #[arg(long, conflicts_with = "train_to_s")]
+    /// are held out (see `--to-s`).
+    #[arg(long, value_name = "FILE", conflicts_with = "train_to_s")]
     pub test: Option<PathBuf>,
     /// A diagnosis of the training data (`rlg diagnose --json`); default: diagnose the
     /// training data against the paper's model now. A diagnosis that saw the held-out part
     /// makes the held-out comparison optimistic.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     pub diagnosis: Option<PathBuf>,
     /// Train on the samples up to this time, s (default: the end of the first temperature
     /// cycle, the paper's protocol); the rest is held out.
-    #[arg(long)]
+    #[arg(long = "to-s", visible_alias = "train-to-s", value_name = "S")]
     pub train_to_s: Option<f64>,
     /// Support vectors of the models (fixed-size LS-SVM; the board table's capacity).
-    #[arg(long, default_value_t = rlg_repro::pipeline::SUPPORT_VECTORS)]
+    #[arg(long, value_name = "M", default_value_t = rlg_repro::pipeline::SUPPORT_VECTORS)]
     pub budget: usize,
     /// Write the chosen model file (JSON) here: the augmented one when cross-validation
     /// adopts it, else the [T, dT/dt] one.
-    #[arg(long)]
+    #[arg(long = "out", visible_alias = "out-model", value_name = "FILE")]
     pub out_model: Option<PathBuf>,
     /// Write the chosen model's board table (Rust const with its feature specification).
-    #[arg(long)]
+    #[arg(long = "table", visible_alias = "out-table", value_name = "FILE")]
     pub out_table: Option<PathBuf>,
 }
 
@@ -65,7 +65,7 @@ pub fn run(args: &CloseLoopArgs, command_line: &str) -> anyhow::Result<()> {
         (None, Some(t)) => t,
         (None, None) => first_cycle_end_s(&rec)?,
     };
-    anyhow::ensure!(end.is_finite(), "--train-to-s must be finite");
+    anyhow::ensure!(end.is_finite(), "--to-s must be finite");
     // The diagnosis sees the training data only, so that the held-out data judge a
     // pipeline (the feature, its parameter, the model) that never saw them.
     let train_part = rec.head(rec.time_s.partition_point(|t| *t <= end));
@@ -76,7 +76,7 @@ pub fn run(args: &CloseLoopArgs, command_line: &str) -> anyhow::Result<()> {
             Err(e @ DiagnoseError::TooShort { .. }) => {
                 println!(
                     "the training data cannot be diagnosed ({e}): the [T, dT/dt] model only; \
-                     give a longer --train-to-s or a later recording with --test"
+                     give a longer --to-s or a later recording with --test"
                 );
                 None
             }

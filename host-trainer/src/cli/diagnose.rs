@@ -10,27 +10,27 @@ use rlg_diagnose::{diagnose, Options, PhysicsModel};
 #[derive(Debug, clap::Args)]
 pub struct DiagnoseArgs {
     /// Recording (CSV).
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     pub recording: PathBuf,
     /// Units of the recording's columns.
     #[command(flatten)]
     pub units: super::UnitArgs,
     /// Physics model (TOML `[[terms]]`, or a scenario file whose terms are taken; `rlg terms`
     /// lists the kinds); default: the paper's model (models/paper.toml).
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     pub model: Option<PathBuf>,
     /// Write the machine-readable result here (JSON).
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
     /// Write the figures into this directory: residual vs time with the located spans,
     /// residual vs temperature by heating / cooling / hold, before / after (PNG).
-    #[arg(long)]
+    #[arg(long, value_name = "DIR")]
     pub plots: Option<PathBuf>,
     /// Bootstrap replicates of the noise model.
-    #[arg(long, default_value_t = 400)]
+    #[arg(long, value_name = "N", default_value_t = 400)]
     pub bootstrap: usize,
     /// False-alarm probability per recording of the significance test.
-    #[arg(long, default_value_t = Options::default().alpha)]
+    #[arg(long, value_name = "P", default_value_t = Options::default().alpha)]
     pub alpha: f64,
 }
 

@@ -13,30 +13,42 @@ use rlg_repro::{dynamic, report, static_test};
 #[derive(Debug, clap::Args)]
 pub struct ReportArgs {
     /// Folder to write `README.md` and the PNG figures into (created if missing).
-    #[arg(long, default_value = "report")]
+    #[arg(long, value_name = "DIR", default_value = "report")]
     pub out: PathBuf,
+    /// Not an option of `report`, which reproduces the paper on its own scenario: a
+    /// recording of your own goes to `rlg calibrate --recording FILE --out DIR`.
+    #[arg(long, value_name = "FILE", hide = true)]
+    pub recording: Option<PathBuf>,
     /// Seed of the simulated dynamic test.
-    #[arg(long, default_value_t = rlg_repro::pipeline::DYNAMIC_SEED)]
+    #[arg(long, value_name = "N", default_value_t = rlg_repro::pipeline::DYNAMIC_SEED)]
     pub seed: u64,
     /// Train on means of this many 1 Hz samples (100: the paper's averaging; 1: raw 1 Hz).
-    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..=3600))]
+    #[arg(long, value_name = "N", default_value_t = 100, value_parser = clap::value_parser!(u64).range(1..=3600))]
     pub block: u64,
     /// Window of the bias stability, samples at 1 Hz (100: the paper's 100 s stability).
-    #[arg(long, default_value_t = 100, value_parser = clap::value_parser!(u64).range(2..=100_000))]
+    #[arg(long, value_name = "S", default_value_t = 100, value_parser = clap::value_parser!(u64).range(2..=100_000))]
     pub window: u64,
     /// Stepwise entry significance.
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, value_name = "P", default_value_t = 0.05)]
     pub alpha_enter: f64,
     /// Stepwise removal significance.
-    #[arg(long, default_value_t = 0.10)]
+    #[arg(long, value_name = "P", default_value_t = 0.10)]
     pub alpha_remove: f64,
     /// Table 1 CSV (default: the copy shipped with the crate).
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     pub table: Option<PathBuf>,
 }
 
 /// Runs both reproductions, prints the comparison and writes the folder.
 pub fn run(args: &ReportArgs) -> anyhow::Result<()> {
+    if let Some(r) = &args.recording {
+        anyhow::bail!(
+            "rlg report reproduces the paper on its shipped scenario; for a recording of your \
+             own run `rlg calibrate --recording {} --out {}`",
+            r.display(),
+            args.out.display()
+        );
+    }
     let rows = match &args.table {
         Some(p) => table1::read_table1(p)?,
         None => table1::bundled()?,

@@ -9,20 +9,25 @@ use rlg_io::resample::{bin_means, burst_means};
 #[derive(Debug, clap::Args)]
 pub struct ResampleArgs {
     /// Input recording (CSV).
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     pub recording: PathBuf,
     /// Units of the input's columns (the output is in seconds, °C and °/h).
     #[command(flatten)]
     pub units: super::UnitArgs,
     /// Output recording (CSV, written atomically).
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
     /// Means over periods of this many seconds (continuous logs; 1 for the board's rate).
-    #[arg(long, default_value_t = 1.0, conflicts_with = "bursts")]
+    #[arg(
+        long,
+        value_name = "S",
+        default_value_t = 1.0,
+        conflicts_with = "bursts"
+    )]
     pub period_s: f64,
     /// One mean per burst instead (bursty logs): bursts split at steps over this many times
     /// the median step.
-    #[arg(long)]
+    #[arg(long, value_name = "FACTOR")]
     pub bursts: Option<f64>,
 }
 

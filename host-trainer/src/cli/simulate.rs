@@ -9,13 +9,13 @@ use rlg_simulate::{simulate, truth_path, write_simulation, Scenario};
 #[derive(Debug, clap::Args)]
 pub struct SimulateArgs {
     /// Scenario file (TOML).
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     pub scenario: PathBuf,
     /// RNG seed; the same scenario and seed give byte-identical files.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, value_name = "N", default_value_t = 1)]
     pub seed: u64,
     /// Output recording (CSV); the truth goes to `<stem>.truth.json` beside it.
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
     /// Also draw temperatures and rate against time to this PNG.
     #[arg(long, value_name = "PNG")]

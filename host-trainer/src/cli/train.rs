@@ -16,7 +16,7 @@ use rlg_train::model::{ModelFile, Provenance};
 #[command(group(clap::ArgGroup::new("data").required(true).args(["table1", "recording"])))]
 pub struct TrainArgs {
     /// The paper's Table 1 as CSV (columns temp_c, rate_dph; `#` comments): one feature, temp_c.
-    #[arg(long, value_name = "FILE")]
+    #[arg(long = "table", visible_alias = "table1", value_name = "FILE")]
     pub table1: Option<PathBuf>,
     /// Units of the recording's columns.
     #[command(flatten)]
@@ -71,7 +71,7 @@ pub fn run(a: &TrainArgs, command_line: &str) -> anyhow::Result<()> {
             };
             (p, dataset::from_recording(r, &sel)?)
         }
-        (None, None) => anyhow::bail!("give --table1 FILE or --recording FILE"),
+        (None, None) => anyhow::bail!("give --table FILE or --recording FILE"),
     };
     let provenance = Provenance::from_file(path, command_line)?;
     let (sigma, c) = match (a.sigma, a.c) {
