@@ -86,6 +86,9 @@ pub struct Options {
     pub from_s: Option<f64>,
     /// Use only samples up to this time, s.
     pub to_s: Option<f64>,
+    /// Pool the training means into cells of temperature and dT/dt ([`pool_even`]) so that
+    /// slow stretches of an uneven ramp do not dominate the fit.
+    pub even_temperature: bool,
 }
 
 impl Default for Options {
@@ -100,6 +103,7 @@ impl Default for Options {
             stepwise: StepwiseOptions::default(),
             from_s: None,
             to_s: None,
+            even_temperature: false,
         }
     }
 }
@@ -544,36 +548,66 @@ fn allan_of(v: &[f64]) -> Vec<AdevCi> {
     overlapping_adev_ci(v, 1.0, &octave_clusters(v.len()), CONFIDENCE_1SIGMA)
 }
 
-/// The CV scheme of the tuning means (100 s means up to `to_s`): leave one cycle out when
-/// the span holds two or more of `cycles`, else blocked CV within the one
-/// ([`rlg_train::protocol::CV`]); with the number of groups (1 for blocked).
-fn validation_of(
-    rec: &Recording,
-    series: &FeatureSeries,
-    cycles: &[(f64, f64)],
-    to_s: f64,
-    n_tune: usize,
-) -> anyhow::Result<(Validation, usize)> {
-    let mut out = (CV, 1);
-    if cycles.len() >= 2 {
-        let labels = cycle_labels(rec, series, to_s, TRAIN_BLOCK, cycles);
-        anyhow::ensure!(
-            labels.len() == n_tune,
-            "internal: {} cycle labels for {n_tune} tuning means",
-            labels.len()
-        );
-        let mut distinct = labels.clone();
-        distinct.dedup();
-        if distinct.len() >= 2 {
-            out = (Validation::Groups(labels), distinct.len());
-        }
-    }
+/// The CV scheme of the tuning means from the cycle each starts in (`labels`): leave one cycle
+/// out when they span two or more, else blocked CV ([`rlg_train::protocol::CV`]); with the
+/// number of groups (1 for blocked).
+fn validation_of(labels: &[usize]) -> anyhow::Result<(Validation, usize)> {
+    let n_tune = labels.len();
+    let mut distinct = labels.to_vec();
+    distinct.sort_unstable();
+    distinct.dedup();
+    let out = if distinct.len() >= 2 {
+        (Validation::Groups(labels.to_vec()), distinct.len())
+    } else {
+        (CV, 1)
+    };
     anyhow::ensure!(
         fold_indices(&out.0, n_tune).is_ok(),
-        "the training span holds {n_tune} means of {TRAIN_BLOCK} s; tuning needs at least 50 \
-         (about 1.4 h at 1 Hz after the dT/dt warm-up)"
+        "the training span holds {n_tune} training means; tuning needs at least 50 (about \
+         1.4 h of 100 s means at 1 Hz after the dT/dt warm-up)"
     );
     Ok(out)
+}
+
+/// Pools training means into cells of one cycle, 1 °C of T and a tenth of the largest
+/// |dT/dt|, each cell one mean (`--even-temperature`): a slow stretch of an uneven ramp then
+/// weighs as much as a fast one at the same temperature and rate, instead of as many times
+/// more as it has means. Returns the pooled set and each cell's cycle, in (cycle, T, dT/dt)
+/// order.
+pub fn pool_even(d: &Dataset, labels: &[usize]) -> (Dataset, Vec<usize>) {
+    use std::collections::BTreeMap;
+    let rate_step = 0.1
+        * d.x
+            .iter()
+            .map(|r| r[1].abs())
+            .fold(0.0, f64::max)
+            .max(1e-12);
+    let mut cells: BTreeMap<(usize, i64, i64), (Vec<f64>, f64, usize)> = BTreeMap::new();
+    for ((x, y), &g) in d.x.iter().zip(&d.y_dph).zip(labels) {
+        let key = (g, x[0].floor() as i64, (x[1] / rate_step).round() as i64);
+        let e = cells
+            .entry(key)
+            .or_insert_with(|| (vec![0.0; x.len()], 0.0, 0));
+        for (s, v) in e.0.iter_mut().zip(x) {
+            *s += v;
+        }
+        e.1 += y;
+        e.2 += 1;
+    }
+    let mut out = Dataset {
+        features: d.features.clone(),
+        x: Vec::with_capacity(cells.len()),
+        y_dph: Vec::with_capacity(cells.len()),
+        dt_s: d.dt_s,
+    };
+    let mut groups = Vec::with_capacity(cells.len());
+    for ((g, _, _), (sx, sy, n)) in cells {
+        let k = n as f64;
+        out.x.push(sx.iter().map(|v| v / k).collect());
+        out.y_dph.push(sy / k);
+        groups.push(g);
+    }
+    (out, groups)
 }
 
 /// σ and c of an exact LS-SVM on [T, dT/dt] for the span `[from_s, to_s]` of `rec`, by the
@@ -601,7 +635,14 @@ pub fn tune_recording(
         },
     )?;
     let t_end = *rec.time_s.last().unwrap_or(&0.0);
-    let (validation, _) = validation_of(&rec, &series, &cycles, t_end, data.x.len())?;
+    let labels = cycle_labels(&rec, &series, t_end, TRAIN_BLOCK, &cycles);
+    anyhow::ensure!(
+        labels.len() == data.x.len(),
+        "internal: {} cycle labels for {} tuning means",
+        labels.len(),
+        data.x.len()
+    );
+    let (validation, _) = validation_of(&labels)?;
     let tuned = tune(
         &data.features,
         &data.x,
@@ -677,17 +718,33 @@ pub fn calibrate(
         block,
         rate_tau_s: opts.rate_tau_s,
     };
-    let data = dataset::from_recording(&cal, &sel(opts.block))?;
-    let tune_data = dataset::from_recording(&cal, &sel(TRAIN_BLOCK))?;
+    let mut data = dataset::from_recording(&cal, &sel(opts.block))?;
+    let mut tune_data = dataset::from_recording(&cal, &sel(TRAIN_BLOCK))?;
+    let train_cyc = &cycles[..train_cycles.min(k)];
+    let labels_of = |block: usize, n: usize| -> anyhow::Result<Vec<usize>> {
+        let l = cycle_labels(&cal, &series, train_end.min(t_end), block, train_cyc);
+        anyhow::ensure!(
+            l.len() == n,
+            "internal: {} cycle labels for {n} training means",
+            l.len()
+        );
+        Ok(l)
+    };
+    let mut tune_labels = labels_of(TRAIN_BLOCK, tune_data.x.len())?;
+    if opts.even_temperature {
+        let data_labels = labels_of(opts.block, data.x.len())?;
+        let before = data.x.len();
+        data = pool_even(&data, &data_labels).0;
+        (tune_data, tune_labels) = pool_even(&tune_data, &tune_labels);
+        notes.push(format!(
+            "Training weighted evenly over temperature (--even-temperature): {before} training \
+             means pooled into {} cells of one cycle, 1 °C and a tenth of the largest |dT/dt|, \
+             one mean each.",
+            data.x.len()
+        ));
+    }
     let n_tune = tune_data.x.len();
-
-    let (validation, cv_groups) = validation_of(
-        &cal,
-        &series,
-        &cycles[..train_cycles.min(k)],
-        train_end.min(t_end),
-        n_tune,
-    )?;
+    let (validation, cv_groups) = validation_of(&tune_labels)?;
     let folds = fold_indices(&validation, n_tune)?;
 
     // The LS-SVM: σ and c by CV, then the model.

@@ -113,3 +113,39 @@ fn a_bursty_log_is_refused_for_a_dynamic_model_with_the_reason() {
         "{e}"
     );
 }
+
+/// Ten means in one cell and one in another become one mean each; cycles stay apart.
+#[test]
+fn even_pooling_gives_each_cell_one_mean() {
+    let mut x = vec![vec![20.2, 0.001]; 10];
+    x.push(vec![30.5, 0.010]);
+    x.push(vec![20.3, 0.001]);
+    let y: Vec<f64> = (0..12).map(f64::from).collect();
+    let d = Dataset {
+        features: vec!["temp_c".into(), "temp_rate_c_per_s".into()],
+        x,
+        y_dph: y,
+        dt_s: 1.0,
+    };
+    let labels = [0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1];
+    let (p, g) = pool_even(&d, &labels);
+    assert_eq!(g, vec![0, 0, 1]);
+    assert_eq!(p.x.len(), 3);
+    assert!((p.y_dph[0] - 4.5).abs() < 1e-12, "{:?}", p.y_dph);
+    assert_eq!(p.y_dph[1], 10.0);
+    assert_eq!(p.y_dph[2], 11.0);
+}
+
+#[test]
+fn even_temperature_calibrates_and_says_so() {
+    let rec = chamber(3, 0.002, 4);
+    let opts = Options {
+        even_temperature: true,
+        ..Options::default()
+    };
+    let c = calibrate(&rec, None, &opts, &provenance(), &ProgressBar::hidden()).unwrap();
+    assert!(c.notes.iter().any(|n| n.contains("--even-temperature")));
+    assert_eq!(c.split.cv_groups, 2);
+    let b = |n: &str| c.row(n).unwrap().held_out.as_ref().unwrap().stability_dph;
+    assert!(b(LSSVM) < 0.5 * b(RAW), "{} vs {}", b(LSSVM), b(RAW));
+}

@@ -56,6 +56,11 @@ pub struct CalibrateArgs {
     /// Smallest c of the tuning grid (lower it when no c meets the board's f32 limit).
     #[arg(long, value_name = "C", default_value_t = 0.1)]
     pub c_min: f64,
+    /// Weight training evenly over temperature: pool the training means into cells of one
+    /// cycle, 1 °C and a tenth of the largest |dT/dt|, one mean each, so slow stretches of an
+    /// uneven ramp do not dominate the fit.
+    #[arg(long)]
+    pub even_temperature: bool,
     /// Static characterisation: a temperature-only model from burst or plateau means (a
     /// bursty log has no 1 Hz stream, so no dT/dt model).
     #[arg(long = "static")]
@@ -144,6 +149,7 @@ pub fn run(a: &CalibrateArgs, command_line: &str) -> anyhow::Result<()> {
         grid,
         from_s: a.from_s,
         to_s: a.to_s,
+        even_temperature: a.even_temperature,
         ..Options::default()
     };
     let c = calibrate(
