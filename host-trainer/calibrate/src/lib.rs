@@ -61,6 +61,9 @@ pub const EXACT_MAX: usize = 4000;
 /// See [`EXACT_MAX`].
 pub const LARGE_BUDGET: usize = 512;
 
+/// Most means σ and c are tuned on (see [`calibrate`]): 1 500 means of 100 s are 42 h.
+pub const MAX_TUNE_MEANS: usize = 1500;
+
 /// Highest polynomial degree in T the polynomial baseline is chosen from.
 pub const MAX_POLY_DEGREE: usize = 5;
 
@@ -719,7 +722,19 @@ pub fn calibrate(
         rate_tau_s: opts.rate_tau_s,
     };
     let mut data = dataset::from_recording(&cal, &sel(opts.block))?;
-    let mut tune_data = dataset::from_recording(&cal, &sel(TRAIN_BLOCK))?;
+    // Tuning solves the exact LS-SVM per fold and grid point, cubic in its size: a long
+    // training span is tuned on longer means so that at most MAX_TUNE_MEANS remain.
+    let mut tune_block = TRAIN_BLOCK;
+    let mut tune_data = dataset::from_recording(&cal, &sel(tune_block))?;
+    if tune_data.x.len() > MAX_TUNE_MEANS {
+        tune_block *= tune_data.x.len().div_ceil(MAX_TUNE_MEANS);
+        tune_data = dataset::from_recording(&cal, &sel(tune_block))?;
+        notes.push(format!(
+            "The training span is long: σ, c and the polynomial's degree are tuned on {} means \
+             of {tune_block} s (at most {MAX_TUNE_MEANS}) rather than 100 s means.",
+            tune_data.x.len()
+        ));
+    }
     let train_cyc = &cycles[..train_cycles.min(k)];
     let labels_of = |block: usize, n: usize| -> anyhow::Result<Vec<usize>> {
         let l = cycle_labels(&cal, &series, train_end.min(t_end), block, train_cyc);
@@ -730,7 +745,7 @@ pub fn calibrate(
         );
         Ok(l)
     };
-    let mut tune_labels = labels_of(TRAIN_BLOCK, tune_data.x.len())?;
+    let mut tune_labels = labels_of(tune_block, tune_data.x.len())?;
     if opts.even_temperature {
         let data_labels = labels_of(opts.block, data.x.len())?;
         let before = data.x.len();
