@@ -585,7 +585,9 @@ pub fn pool_even(d: &Dataset, labels: &[usize]) -> (Dataset, Vec<usize>) {
             .map(|r| r[1].abs())
             .fold(0.0, f64::max)
             .max(1e-12);
-    let mut cells: BTreeMap<(usize, i64, i64), (Vec<f64>, f64, usize)> = BTreeMap::new();
+    // (cycle, T bin, dT/dt bin) → (sum of x, sum of y, count).
+    type Cell = (Vec<f64>, f64, usize);
+    let mut cells: BTreeMap<(usize, i64, i64), Cell> = BTreeMap::new();
     for ((x, y), &g) in d.x.iter().zip(&d.y_dph).zip(labels) {
         let key = (g, x[0].floor() as i64, (x[1] / rate_step).round() as i64);
         let e = cells
