@@ -11,8 +11,15 @@ fn main() -> std::process::ExitCode {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");
+            // An error type whose message ends with its source's (`"{path}: {source}"`)
+            // already said it: printing that cause again would only repeat the line.
+            let mut previous = e.to_string();
             for cause in e.chain().skip(1) {
-                eprintln!("  caused by: {}", cause.to_string().trim_end());
+                let text = cause.to_string().trim_end().to_string();
+                if !previous.trim_end().ends_with(&text) {
+                    eprintln!("  caused by: {text}");
+                }
+                previous = text;
             }
             std::process::ExitCode::FAILURE
         }

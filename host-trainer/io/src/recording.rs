@@ -86,15 +86,50 @@ impl Recording {
     /// be a finite number, every row must have as many fields as the header, and `time_s`
     /// must be strictly increasing. Errors name the file, the 1-based line and column.
     pub fn read_csv(path: &Path) -> Result<Recording, RecordingError> {
-        let text = std::fs::read_to_string(path).map_err(|source| RecordingError::Io {
+        use std::io::BufRead;
+        // Read line by line, twice (once to count the rows, once to parse them): the whole
+        // text in memory would double the peak of a long record (440 MB of text for 10⁷
+        // samples beside their 240 MB of columns).
+        let io = |source| RecordingError::Io {
             path: path.display().to_string(),
             source,
-        })?;
-        Self::parse_csv(&text, &path.display().to_string())
+        };
+        let lines = || -> Result<_, RecordingError> {
+            let f = std::fs::File::open(path).map_err(io)?;
+            Ok(std::io::BufReader::new(f)
+                .lines()
+                .map(move |l| l.map_err(io)))
+        };
+        let (mut content, mut total) = (0usize, 0usize);
+        for l in lines()? {
+            let l = l?;
+            total += 1;
+            if is_content(&l) {
+                content += 1;
+            }
+        }
+        Self::parse_lines(lines()?, content, total, &path.display().to_string())
     }
 
     /// Parses recording text; `origin` names the source in error messages.
     pub fn parse_csv(text: &str, origin: &str) -> Result<Recording, RecordingError> {
+        let content = text.lines().filter(|l| is_content(l)).count();
+        Self::parse_lines(
+            text.lines().map(|l| Ok(l.to_string())),
+            content,
+            text.lines().count(),
+            origin,
+        )
+    }
+
+    /// Parses the lines of a recording (`content_lines` of them neither comments nor blank,
+    /// `total_lines` in all); `origin` names the source in error messages.
+    fn parse_lines(
+        lines: impl Iterator<Item = Result<String, RecordingError>>,
+        content_lines: usize,
+        total_lines: usize,
+        origin: &str,
+    ) -> Result<Recording, RecordingError> {
         let err = |line: usize, column: usize, message: String| RecordingError::Format {
             path: origin.to_string(),
             line,
@@ -108,12 +143,8 @@ impl Recording {
         let mut extra_idx: Vec<usize> = Vec::new();
         let mut chamber = Vec::new();
         let mut last_time: Option<(f64, usize)> = None;
-        // The header and the rows: the lines that are neither comments nor blank.
-        let content_lines = text
-            .lines()
-            .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
-            .count();
-        for (k, raw) in text.lines().enumerate() {
+        for (k, raw) in lines.enumerate() {
+            let raw = raw?;
             let line_no = k + 1;
             let line = raw.trim_end_matches('\r');
             if let Some(c) = line.strip_prefix('#') {
@@ -222,14 +253,14 @@ impl Recording {
         }
         if header.is_none() {
             return Err(err(
-                text.lines().count().max(1),
+                total_lines.max(1),
                 0,
                 "empty file: expected a header row".into(),
             ));
         }
         if rec.is_empty() {
             return Err(err(
-                text.lines().count().max(1),
+                total_lines.max(1),
                 0,
                 "no data rows after the header".into(),
             ));
@@ -414,6 +445,11 @@ impl Recording {
             })?;
         write_atomic(path, text.as_bytes())
     }
+}
+
+/// A line of a recording that is neither a comment (`#`) nor blank: the header or a row.
+fn is_content(line: &str) -> bool {
+    !line.starts_with('#') && !line.trim().is_empty()
 }
 
 /// Writes `bytes` to `path` atomically ([`crate::atomic::write`]).

@@ -67,9 +67,14 @@ fn averaged(
     runs: &[(usize, usize)],
     stamp: impl Fn(usize, &[f64]) -> f64,
 ) -> Recording {
+    // One sample per run: sized up front, as the input may hold 10⁷ samples.
+    let n = runs.len();
     let mut out = Recording {
+        time_s: Vec::with_capacity(n),
+        rate_dph: Vec::with_capacity(n),
+        temp_c: Vec::with_capacity(n),
         comments: rec.comments.clone(),
-        chamber_c: rec.chamber_c.as_ref().map(|_| Vec::new()),
+        chamber_c: rec.chamber_c.as_ref().map(|_| Vec::with_capacity(n)),
         ..Recording::default()
     };
     for (k, &(a, b)) in runs.iter().enumerate() {
