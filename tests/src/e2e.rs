@@ -105,7 +105,7 @@ pub fn run(out: &Path) -> anyhow::Result<E2eReport> {
         }
         compensated.push(f64::from(out.rate_dph));
         if out.status.is_ok() {
-            let x: Vec<f64> = series.rows[k].clone();
+            let x: Vec<f64> = series.rows[k].to_vec();
             let reference = model.correction_dph(&x);
             max_diff = max_diff.max((f64::from(out.correction_dph) - reference).abs());
         }

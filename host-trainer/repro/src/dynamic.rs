@@ -194,7 +194,8 @@ pub fn reproduce(opts: &DynamicOptions, progress: &ProgressBar) -> anyhow::Resul
     let col = |v: &[Vec<f64>], d: usize| v.iter().map(|r| r[d]).collect::<Vec<f64>>();
     let cand_train = paper_candidates(&col(x, 0), &col(x, 1))?;
     let sw = stepwise(&cand_train, y, &opts.stepwise)?;
-    let cand_all = paper_candidates(&col(&feats.rows, 0), &col(&feats.rows, 1))?;
+    let fcol = |d: usize| feats.rows.iter().map(|r| r[d]).collect::<Vec<f64>>();
+    let cand_all = paper_candidates(&fcol(0), &fcol(1))?;
     let sw_pred = sw.fit.predict(&cand_all)?;
 
     // LS-SVM: σ, c by blocked CV on the 100 s means of the first cycle whatever the training

@@ -161,12 +161,31 @@ pub fn from_recording_with(
             f64::from(series.warming_up.iter().filter(|w| **w).count() as u32) * dt_s
         )));
     }
-    let x: Vec<Vec<f64>> = keep.iter().map(|&k| series.rows[k].clone()).collect();
-    let y: Vec<f64> = keep.iter().map(|&k| rec.rate_dph[k]).collect();
+    // Averaged straight from the series: one vector per kept sample would be most of the
+    // memory of a long record.
     let (x, y) = if sel.block > 1 {
-        features::block_average(&x, &y, sel.block)?
+        if keep.len() < sel.block {
+            return Err(features::FeatureError::Block {
+                len: keep.len(),
+                block: sel.block,
+            }
+            .into());
+        }
+        let dim = series.rows.dim();
+        keep.chunks_exact(sel.block)
+            .map(|c| {
+                let m = c.len() as f64;
+                let xm: Vec<f64> = (0..dim)
+                    .map(|d| c.iter().map(|&k| series.rows[k][d]).sum::<f64>() / m)
+                    .collect();
+                (xm, c.iter().map(|&k| rec.rate_dph[k]).sum::<f64>() / m)
+            })
+            .unzip()
     } else {
-        (x, y)
+        (
+            keep.iter().map(|&k| series.rows[k].to_vec()).collect(),
+            keep.iter().map(|&k| rec.rate_dph[k]).collect(),
+        )
     };
     Ok(Dataset {
         features: series.names(),

@@ -95,13 +95,79 @@ pub fn rate_filter(rate_tau_s: f64, dt_s: f64) -> Result<RateFilter, FeatureErro
     Ok(f)
 }
 
+/// Rows of features stored in one flat allocation: 16 bytes a sample for two features,
+/// where one vector per row costs 56 (a 10⁷-sample record: 160 MB instead of 560 MB).
+/// `rows[k]` is row k as a slice.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FeatureRows {
+    dim: usize,
+    n: usize,
+    data: Vec<f64>,
+}
+
+impl FeatureRows {
+    /// Empty rows of `dim` values, room for `n`.
+    pub fn with_capacity(dim: usize, n: usize) -> Self {
+        FeatureRows {
+            dim,
+            n: 0,
+            data: Vec::with_capacity(dim * n),
+        }
+    }
+
+    /// Appends one row (the iterator must give `dim` values).
+    pub fn push_row(&mut self, row: impl IntoIterator<Item = f64>) {
+        let before = self.data.len();
+        self.data.extend(row);
+        assert_eq!(
+            self.data.len() - before,
+            self.dim,
+            "row of the wrong length"
+        );
+        self.n += 1;
+    }
+
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.n
+    }
+
+    /// Whether there is no row.
+    pub fn is_empty(&self) -> bool {
+        self.n == 0
+    }
+
+    /// Values per row.
+    pub fn dim(&self) -> usize {
+        self.dim
+    }
+
+    /// The rows in order.
+    pub fn iter(&self) -> impl ExactSizeIterator<Item = &[f64]> + '_ {
+        (0..self.n).map(move |k| &self[k])
+    }
+
+    /// The last row.
+    pub fn last(&self) -> Option<&[f64]> {
+        self.n.checked_sub(1).map(|k| &self[k])
+    }
+}
+
+impl std::ops::Index<usize> for FeatureRows {
+    type Output = [f64];
+    fn index(&self, k: usize) -> &[f64] {
+        assert!(k < self.n, "row {k} of {}", self.n);
+        &self.data[k * self.dim..(k + 1) * self.dim]
+    }
+}
+
 /// A feature matrix, one row per sample.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FeatureSeries {
     /// Which feature each column holds.
     pub features: Vec<Feature>,
     /// One row per input sample; each value is the f32 the board would compute, widened.
-    pub rows: Vec<Vec<f64>>,
+    pub rows: FeatureRows,
     /// Whether the estimator was still warming up at each sample (exclude from training).
     pub warming_up: Vec<bool>,
 }
@@ -152,7 +218,7 @@ pub fn compute(
         .iter()
         .map(|f| FeatureBank::new([*f], filter.dt_s))
         .collect();
-    let mut rows = Vec::with_capacity(temp_c.len());
+    let mut rows = FeatureRows::with_capacity(features.len(), temp_c.len());
     let mut warming_up = Vec::with_capacity(temp_c.len());
     for (k, &t) in temp_c.iter().enumerate() {
         if k > 0 {
@@ -189,12 +255,7 @@ pub fn compute(
         }
         let t32 = t as f32;
         let e = est.update(t32);
-        rows.push(
-            banks
-                .iter_mut()
-                .map(|b| f64::from(b.update(t32, &e)[0]))
-                .collect(),
-        );
+        rows.push_row(banks.iter_mut().map(|b| f64::from(b.update(t32, &e)[0])));
         warming_up.push(e.warming_up);
     }
     Ok(FeatureSeries {
