@@ -73,6 +73,19 @@ pub enum DiagnoseError {
         /// Required.
         min: usize,
     },
+    /// More samples than the diagnosis takes within its memory budget.
+    #[error(
+        "the recording has {samples} samples ({days:.1} days); the diagnosis takes up to {max} \
+         (46 days at 1 Hz): diagnose a part of it with --from-s / --to-s"
+    )]
+    TooLong {
+        /// Samples given.
+        samples: usize,
+        /// Largest accepted.
+        max: usize,
+        /// The record's length, days.
+        days: f64,
+    },
     /// A temperature or time stamp is NaN or infinite.
     #[error("non-finite temperature or time at sample {index}")]
     NonFinite {

@@ -383,6 +383,10 @@ impl Prepared {
     }
 }
 
+/// Most samples a diagnosis takes (46 days at 1 Hz): its per-sample columns, built for
+/// several candidates at once, then stay within about 1.5 GB.
+pub const MAX_SAMPLES: usize = 4_000_000;
+
 /// Minimum number of 100 s blocks for a diagnosis (about 5.5 h).
 pub const MIN_BLOCKS: usize = 200;
 
@@ -412,7 +416,24 @@ pub fn prepare(rec: &Recording) -> Result<Prepared, DiagnoseError> {
             min: MIN_BLOCKS,
         });
     }
-    let dt_s = (rec.time_s[n - 1] - rec.time_s[0]) / (n - 1) as f64;
+    // The mean step, unless gaps make it differ from the median step by more than 1 %: a
+    // long gap would otherwise pass for a slow sample rate and the blocks would span hours.
+    let mean_step = (rec.time_s[n - 1] - rec.time_s[0]) / (n - 1) as f64;
+    let mut steps: Vec<f64> = rec.time_s.windows(2).map(|w| w[1] - w[0]).collect();
+    steps.sort_by(f64::total_cmp);
+    let median_step = steps[steps.len() / 2];
+    let dt_s = if (mean_step / median_step - 1.0).abs() > 0.01 {
+        median_step
+    } else {
+        mean_step
+    };
+    if n > MAX_SAMPLES {
+        return Err(DiagnoseError::TooLong {
+            samples: n,
+            max: MAX_SAMPLES,
+            days: n as f64 * dt_s / 86_400.0,
+        });
+    }
     let rate_all = estimate_rate(&rec.temp_c, &rec.time_s, dt_s)?;
     let block = block_samples(n, dt_s);
     // The first and last ±30 s have one-sided differences; the start is dropped (the end is

@@ -19,6 +19,12 @@ pub struct DiagnoseArgs {
     /// lists the kinds); default: the paper's model (models/paper.toml).
     #[arg(long, value_name = "FILE")]
     pub model: Option<PathBuf>,
+    /// Diagnose the samples from this time on, s.
+    #[arg(long, value_name = "S")]
+    pub from_s: Option<f64>,
+    /// Diagnose the samples up to this time, s.
+    #[arg(long, value_name = "S")]
+    pub to_s: Option<f64>,
     /// Write the machine-readable result here (JSON).
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
@@ -56,7 +62,30 @@ pub fn run(args: &DiagnoseArgs) -> anyhow::Result<()> {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("--plots {}: cannot create the directory", dir.display()))?;
     }
-    let rec = super::read_recording(&args.recording, &args.units)?;
+    let mut rec = super::read_recording(&args.recording, &args.units)?;
+    if args.from_s.is_some() || args.to_s.is_some() {
+        let lo = args.from_s.unwrap_or(f64::NEG_INFINITY);
+        let hi = args.to_s.unwrap_or(f64::INFINITY);
+        let a = rec.time_s.partition_point(|t| *t < lo);
+        let b = rec.time_s.partition_point(|t| *t <= hi);
+        anyhow::ensure!(
+            b > a,
+            "no samples between --from-s {lo} and --to-s {hi} (the recording spans {} … {} s)",
+            rec.time_s.first().unwrap_or(&f64::NAN),
+            rec.time_s.last().unwrap_or(&f64::NAN)
+        );
+        let cut = |v: &mut Vec<f64>| {
+            v.truncate(b);
+            v.drain(..a);
+        };
+        cut(&mut rec.time_s);
+        cut(&mut rec.rate_dph);
+        cut(&mut rec.temp_c);
+        if let Some(c) = rec.chamber_c.as_mut() {
+            cut(c);
+        }
+        rec.extra.clear();
+    }
     let model = match &args.model {
         Some(p) => PhysicsModel::read(p)?,
         None => PhysicsModel::paper(),
