@@ -36,7 +36,7 @@ use compensator_core::{Compensator, Feature, SensorLimits};
 use rlg_eval::baselines::{paper_candidates, stepwise, PolyFit, StepwiseFit, StepwiseOptions};
 use rlg_eval::metrics::allan::{octave_clusters, overlapping_adev_ci, AdevCi, CONFIDENCE_1SIGMA};
 use rlg_eval::metrics::compare::improvement_factor;
-use rlg_eval::metrics::stability::{bias_stability_gapless_dph, rms};
+use rlg_eval::metrics::stability::{bias_stability_gapless_dph, gapless_block_means, rms};
 use rlg_io::cycles::cycle_spans;
 use rlg_io::recording::Recording;
 use rlg_train::dataset::{self, Dataset, RecordingSelection};
@@ -60,6 +60,9 @@ pub const MAX_BUDGET: usize = 512;
 pub const EXACT_MAX: usize = 4000;
 /// See [`EXACT_MAX`].
 pub const LARGE_BUDGET: usize = 512;
+
+/// Most CV folds: beyond this many training cycles, runs of consecutive cycles are grouped.
+pub const MAX_FOLDS: usize = 10;
 
 /// Most means σ and c are tuned on (see [`calibrate`]): 1 500 means of 100 s are 42 h.
 pub const MAX_TUNE_MEANS: usize = 1500;
@@ -235,16 +238,19 @@ pub const LSSVM: &str = "LS-SVM on [T, dT/dt]";
 /// See [`RAW`].
 pub const BOARD: &str = "board table (f32)";
 
-/// The held-out stream as the figures need it.
+/// The held-out stream as the figures need it: means over the stability's gap-free windows
+/// (the 1 Hz series of a long record would hold most of the memory).
 #[derive(Clone, Debug, PartialEq)]
 pub struct HeldOutSeries {
-    /// Times, s.
+    /// First held-out time, s.
+    pub start_s: f64,
+    /// Mean time of each window, s.
     pub time_s: Vec<f64>,
-    /// Sensor temperature, °C.
+    /// Mean sensor temperature of each window, °C.
     pub temp_c: Vec<f64>,
-    /// The board's dT/dt estimate, °C/s.
-    pub rate_c_per_s: Vec<f64>,
-    /// Output of each row of [`Calibration::rows`] (raw first), °/h.
+    /// Phase of each window: 0 heating, 1 cooling, 2 hold ([`phases::window_phases`]).
+    pub phase: Vec<usize>,
+    /// Window means of the output of each row of [`Calibration::rows`] (raw first), °/h.
     pub outputs: Vec<Vec<f64>>,
 }
 
@@ -308,7 +314,7 @@ pub fn check_stream(rec: &Recording, what: &str) -> anyhow::Result<f64> {
     anyhow::ensure!(
         dt >= 0.9,
         "{what}: samples every {dt:.3} s (median step); the board runs at 1 Hz: bring it to \
-         1 Hz first with `rlg resample --period 1`"
+         1 Hz first with `rlg resample --period-s 1`"
     );
     Ok(dt)
 }
@@ -324,9 +330,13 @@ fn features_of(rec: &Recording, tau: f64, dt: f64) -> anyhow::Result<FeatureSeri
 }
 
 /// Restricts `rec` to `[from_s, to_s]`.
-fn window_of(rec: &Recording, from_s: Option<f64>, to_s: Option<f64>) -> anyhow::Result<Recording> {
+fn window_of(
+    rec: &Recording,
+    from_s: Option<f64>,
+    to_s: Option<f64>,
+) -> anyhow::Result<std::borrow::Cow<'_, Recording>> {
     if from_s.is_none() && to_s.is_none() {
-        return Ok(rec.clone());
+        return Ok(std::borrow::Cow::Borrowed(rec));
     }
     let lo = from_s.unwrap_or(f64::NEG_INFINITY);
     let hi = to_s.unwrap_or(f64::INFINITY);
@@ -339,14 +349,14 @@ fn window_of(rec: &Recording, from_s: Option<f64>, to_s: Option<f64>) -> anyhow:
         rec.time_s.last().unwrap_or(&f64::NAN)
     );
     let pick = |v: &Vec<f64>| v[a..b].to_vec();
-    Ok(Recording {
+    Ok(std::borrow::Cow::Owned(Recording {
         time_s: pick(&rec.time_s),
         rate_dph: pick(&rec.rate_dph),
         temp_c: pick(&rec.temp_c),
         chamber_c: rec.chamber_c.as_ref().map(pick),
         extra: Vec::new(),
         comments: rec.comments.clone(),
-    })
+    }))
 }
 
 /// The training span's 100 s means and the cycle each starts in, by the rule
@@ -536,12 +546,16 @@ pub fn board_output(
         comp.table_ok(),
         "the exported table fails the board's validation"
     );
-    let mut all = Vec::with_capacity(stream.len());
+    let mut out = Vec::with_capacity(keep.len());
+    let mut next = keep.iter().peekable();
     for k in 0..stream.len() {
-        let out = comp.update(stream.temp_c[k] as f32, stream.rate_dph[k] as f32);
-        all.push(f64::from(out.rate_dph));
+        let o = comp.update(stream.temp_c[k] as f32, stream.rate_dph[k] as f32);
+        if next.peek() == Some(&&k) {
+            out.push(f64::from(o.rate_dph));
+            next.next();
+        }
     }
-    Ok(keep.iter().map(|&k| all[k]).collect())
+    Ok(out)
 }
 
 /// Allan deviation of a held-out output with 1σ intervals from the equivalent degrees of
@@ -559,7 +573,16 @@ fn validation_of(labels: &[usize]) -> anyhow::Result<(Validation, usize)> {
     let mut distinct = labels.to_vec();
     distinct.sort_unstable();
     distinct.dedup();
-    let out = if distinct.len() >= 2 {
+    let out = if distinct.len() > MAX_FOLDS {
+        // Many cycles: runs of consecutive whole cycles form MAX_FOLDS groups, so the cost
+        // stays that of MAX_FOLDS fits per grid point and no cycle is split.
+        let g = distinct.len();
+        let grouped: Vec<usize> = labels
+            .iter()
+            .map(|l| distinct.partition_point(|d| d < l) * MAX_FOLDS / g)
+            .collect();
+        (Validation::Groups(grouped), MAX_FOLDS)
+    } else if distinct.len() >= 2 {
         (Validation::Groups(labels.to_vec()), distinct.len())
     } else {
         (CV, 1)
@@ -617,7 +640,8 @@ pub fn pool_even(d: &Dataset, labels: &[usize]) -> (Dataset, Vec<usize>) {
 
 /// σ and c of an exact LS-SVM on [T, dT/dt] for the span `[from_s, to_s]` of `rec`, by the
 /// calibration's CV (whole cycles when the span holds two or more, see [`calibrate`]) on its
-/// 100 s means: what `rlg train` uses when σ and c are not given.
+/// 100 s means (longer ones beyond [`MAX_TUNE_MEANS`], runs of cycles beyond [`MAX_FOLDS`]):
+/// what `rlg train` uses when σ and c are not given.
 pub fn tune_recording(
     rec: &Recording,
     from_s: Option<f64>,
@@ -630,17 +654,21 @@ pub fn tune_recording(
     let dt = check_stream(&rec, "the recording")?;
     let series = features_of(&rec, rate_tau_s, dt)?;
     let cycles = cycle_spans(&rec.time_s, &rec.temp_c);
-    let data = dataset::from_recording(
-        &rec,
-        &RecordingSelection {
-            from_s: None,
-            to_s: None,
-            block: TRAIN_BLOCK,
-            rate_tau_s,
-        },
-    )?;
+    let sel = |block| RecordingSelection {
+        from_s: None,
+        to_s: None,
+        block,
+        rate_tau_s,
+    };
+    // At most MAX_TUNE_MEANS means, as `calibrate` tunes.
+    let mut block = TRAIN_BLOCK;
+    let mut data = dataset::from_recording(&rec, &sel(block))?;
+    if data.x.len() > MAX_TUNE_MEANS {
+        block *= data.x.len().div_ceil(MAX_TUNE_MEANS);
+        data = dataset::from_recording(&rec, &sel(block))?;
+    }
     let t_end = *rec.time_s.last().unwrap_or(&0.0);
-    let labels = cycle_labels(&rec, &series, t_end, TRAIN_BLOCK, &cycles);
+    let labels = cycle_labels(&rec, &series, t_end, block, &cycles);
     anyhow::ensure!(
         labels.len() == data.x.len(),
         "internal: {} cycle labels for {} tuning means",
@@ -891,15 +919,17 @@ pub fn calibrate(
     let poly_cv = poly_cv_dph[poly_degree - 1];
 
     // The held-out stream.
-    let (stream, stream_series, start) = match test {
+    let test_series;
+    let (stream, stream_series, start): (&Recording, &FeatureSeries, usize) = match test {
         Some(t) => {
             let dt_t = check_stream(t, "the test recording")?;
-            (t.clone(), features_of(t, opts.rate_tau_s, dt_t)?, 0)
+            test_series = features_of(t, opts.rate_tau_s, dt_t)?;
+            (t, &test_series, 0)
         }
         None => {
             // The reproduction's rule: samples from the cycle boundary on are held out.
             let s = cal.time_s.partition_point(|t| *t < train_end);
-            (cal.clone(), series.clone(), s)
+            (&cal, &series, s)
         }
     };
     let keep: Vec<usize> = (start..stream.len())
@@ -913,54 +943,73 @@ pub fn calibrate(
         keep.len(),
         opts.window
     );
-    let xs: Vec<&Vec<f64>> = keep.iter().map(|&k| &stream_series.rows[k]).collect();
-    let raw: Vec<f64> = keep.iter().map(|&k| stream.rate_dph[k]).collect();
-    let minus = |pred: &dyn Fn(&[f64]) -> f64| -> Vec<f64> {
-        xs.iter().zip(&raw).map(|(r, y)| y - pred(r)).collect()
-    };
-    let held_cand = paper_candidates(
-        &xs.iter().map(|r| r[0]).collect::<Vec<_>>(),
-        &xs.iter().map(|r| r[1]).collect::<Vec<_>>(),
-    );
-    let mut outputs = vec![raw.clone(), minus(&|r| poly.predict(r[0]))];
-    outputs.push(match held_cand {
-        Ok(c) => {
-            let p = sw.fit.predict(&c)?;
-            raw.iter().zip(&p).map(|(y, p)| y - p).collect()
-        }
-        // A held-out span with constant T cannot form the candidates; stepwise is then its
-        // intercept alone only if it chose no term.
-        Err(e) if has_test => return Err(e.into()),
-        Err(_) => Vec::new(),
-    });
-    outputs.push(minus(&|r| lssvm.predict(r)));
-    outputs.push(if has_test {
-        board_output(&stream, &board_model, &keep)?
-    } else {
-        Vec::new()
-    });
+    // Each model's held-out output is made, scored and reduced to window means in turn, so
+    // that only one 1 Hz output is held at a time.
+    let w = opts.window;
     let time: Vec<f64> = keep.iter().map(|&k| stream.time_s[k]).collect();
-    let temp: Vec<f64> = keep.iter().map(|&k| stream.temp_c[k]).collect();
-    let rate: Vec<f64> = xs.iter().map(|r| r[1]).collect();
-
-    let resid = |pred: &dyn Fn(&[f64]) -> f64, xx: &[Vec<f64>]| -> Option<f64> {
-        let r: Vec<f64> = xx.iter().zip(y).map(|(r, y)| y - pred(r)).collect();
-        rms(&r)
+    let rate: Vec<f64> = keep.iter().map(|&k| stream_series.rows[k][1]).collect();
+    let compensate = |pred: &dyn Fn(&[f64]) -> f64| -> Vec<f64> {
+        keep.iter()
+            .map(|&k| stream.rate_dph[k] - pred(&stream_series.rows[k]))
+            .collect()
     };
+    let raw: Vec<f64> = keep.iter().map(|&k| stream.rate_dph[k]).collect();
     let raw_b = has_test
-        .then(|| bias_stability_gapless_dph(&time, &raw, opts.window))
+        .then(|| bias_stability_gapless_dph(&time, &raw, w))
         .flatten();
     let score = |out: &[f64]| -> Option<HeldOutScore> {
-        if !has_test {
+        if !has_test || out.is_empty() {
             return None;
         }
-        let b = bias_stability_gapless_dph(&time, out, opts.window).unwrap_or(f64::NAN);
+        let b = bias_stability_gapless_dph(&time, out, w).unwrap_or(f64::NAN);
         Some(HeldOutScore {
             stability_dph: b,
             improvement: raw_b.and_then(|r| improvement_factor(r, b)),
-            phases: phases::phase_rms(&time, &rate, out, opts.window),
+            phases: phases::phase_rms(&time, &rate, out, w),
             allan: allan_of(out),
         })
+    };
+    let mut means = Vec::new();
+    let mut judge = |out: Vec<f64>| {
+        let s = score(&out);
+        means.push(if s.is_some() {
+            gapless_block_means(&time, &out, w)
+        } else {
+            Vec::new()
+        });
+        s
+    };
+    let held_raw = judge(raw);
+    let held_poly = judge(compensate(&|r| poly.predict(r[0])));
+    // Stepwise's nine candidate columns, formed a chunk of samples at a time.
+    let mut sw_out = Vec::with_capacity(keep.len());
+    for chunk in keep.chunks(1 << 16) {
+        let col =
+            |d: usize| -> Vec<f64> { chunk.iter().map(|&k| stream_series.rows[k][d]).collect() };
+        match paper_candidates(&col(0), &col(1)) {
+            Ok(c) => {
+                let p = sw.fit.predict(&c)?;
+                sw_out.extend(chunk.iter().zip(&p).map(|(&k, p)| stream.rate_dph[k] - p));
+            }
+            // A held-out span with constant T cannot form the candidates.
+            Err(e) if has_test => return Err(e.into()),
+            Err(_) => {
+                sw_out.clear();
+                break;
+            }
+        }
+    }
+    let held_sw = judge(sw_out);
+    let held_ls = judge(compensate(&|r| lssvm.predict(r)));
+    let held_board = judge(if has_test {
+        board_output(stream, &board_model, &keep)?
+    } else {
+        Vec::new()
+    });
+    let outputs = means;
+    let resid = |pred: &dyn Fn(&[f64]) -> f64, xx: &[Vec<f64>]| -> Option<f64> {
+        let r: Vec<f64> = xx.iter().zip(y).map(|(r, y)| y - pred(r)).collect();
+        rms(&r)
     };
     let rows = vec![
         ModelRow {
@@ -968,14 +1017,14 @@ pub fn calibrate(
             detail: "uncompensated output".into(),
             train_rms_dph: None,
             cv_rms_dph: None,
-            held_out: score(&outputs[0]),
+            held_out: held_raw,
         },
         ModelRow {
             name: POLY.into(),
             detail: format!("degree {poly_degree} (by CV of degrees 1–{MAX_POLY_DEGREE})"),
             train_rms_dph: resid(&|r| poly.predict(r[0]), x),
             cv_rms_dph: Some(poly_cv),
-            held_out: score(&outputs[1]),
+            held_out: held_poly,
         },
         ModelRow {
             name: STEPWISE.into(),
@@ -986,7 +1035,7 @@ pub fn calibrate(
             },
             train_rms_dph: rms(&sw.fit.residuals),
             cv_rms_dph: sw_cv,
-            held_out: score(&outputs[2]),
+            held_out: held_sw,
         },
         ModelRow {
             name: LSSVM.into(),
@@ -998,7 +1047,7 @@ pub fn calibrate(
             ),
             train_rms_dph: resid(&|r| lssvm.predict(r), x),
             cv_rms_dph: Some(tuned.cv_rms_dph),
-            held_out: score(&outputs[3]),
+            held_out: held_ls,
         },
         ModelRow {
             name: BOARD.into(),
@@ -1008,16 +1057,18 @@ pub fn calibrate(
             ),
             train_rms_dph: Some(board_model.training.rms_dph),
             cv_rms_dph: Some(board.cv_rms_dph),
-            held_out: score(&outputs[4]),
+            held_out: held_board,
         },
     ];
     let (test_span_s, series_out) = if has_test {
+        let temp: Vec<f64> = keep.iter().map(|&k| stream.temp_c[k]).collect();
         (
             Some((time[0], *time.last().unwrap_or(&time[0]))),
             HeldOutSeries {
-                time_s: time,
-                temp_c: temp,
-                rate_c_per_s: rate,
+                start_s: time[0],
+                time_s: gapless_block_means(&time, &time, w),
+                temp_c: gapless_block_means(&time, &temp, w),
+                phase: phases::window_phases(&time, &rate, w),
                 outputs,
             },
         )
@@ -1025,9 +1076,10 @@ pub fn calibrate(
         (
             None,
             HeldOutSeries {
+                start_s: f64::NAN,
                 time_s: Vec::new(),
                 temp_c: Vec::new(),
-                rate_c_per_s: Vec::new(),
+                phase: Vec::new(),
                 outputs: Vec::new(),
             },
         )

@@ -13,12 +13,11 @@ use rlg_eval::metrics::allan::{
     angle_random_walk_dph_rt_h_ci, bias_instability_dph_ci, rate_random_walk_dph_per_rt_h_ci,
     AdevCi, ReadOff,
 };
-use rlg_eval::metrics::stability::gapless_block_means;
 use rlg_io::plot::{render_png, Figure, Series, Style};
 use rlg_train::export::{self, Format};
 use rlg_train::model::ModelFile;
 
-use crate::phases::{window_phases, PhaseRms};
+use crate::phases::PhaseRms;
 use crate::static_cal::StaticCalibration;
 use crate::{Calibration, HeldOut, BOARD, LSSVM, RAW, STEPWISE};
 
@@ -454,11 +453,8 @@ fn figures(c: &Calibration, dir: &Path) -> anyhow::Result<Vec<String>> {
     let w = c.options.window;
     let s = &c.series;
     if !s.time_s.is_empty() {
-        let th: Vec<f64> = gapless_block_means(&s.time_s, &s.time_s, w)
-            .iter()
-            .map(|t| t / 3600.0)
-            .collect();
-        let tc = gapless_block_means(&s.time_s, &s.temp_c, w);
+        let th: Vec<f64> = s.time_s.iter().map(|t| t / 3600.0).collect();
+        let tc = s.temp_c.clone();
         let mut fig = Figure::new(
             &format!("HELD-OUT output, {w} s means (each centred)"),
             "time (h)",
@@ -470,12 +466,12 @@ fn figures(c: &Calibration, dir: &Path) -> anyhow::Result<Vec<String>> {
             "T (°C)",
             "rate − mean (°/h)",
         );
-        let phases = window_phases(&s.time_s, &s.rate_c_per_s, w);
+        let phases = &s.phase;
         for (r, out) in c.rows.iter().zip(&s.outputs) {
             if ![RAW, STEPWISE, LSSVM, BOARD].contains(&r.name.as_str()) || out.is_empty() {
                 continue;
             }
-            let m = centred(&gapless_block_means(&s.time_s, out, w));
+            let m = centred(out);
             fig.series
                 .push(Series::new(&r.name, th.clone(), m.clone(), Style::Line));
             if r.name != BOARD {
@@ -483,7 +479,7 @@ fn figures(c: &Calibration, dir: &Path) -> anyhow::Result<Vec<String>> {
                     let (xs, ys): (Vec<f64>, Vec<f64>) = tc
                         .iter()
                         .zip(&m)
-                        .zip(&phases)
+                        .zip(phases)
                         .filter(|(_, ph)| **ph == p)
                         .map(|((t, v), _)| (*t, *v))
                         .unzip();

@@ -297,7 +297,7 @@ fn diagnosed_row(
         c.options.rate_tau_s,
         1.0,
     )?;
-    let rate: Vec<f64> = rate.rows[k0..].iter().map(|r| r[0]).collect();
+    let rate: Vec<f64> = rate.rows.iter().skip(k0).map(|r| r[0]).collect();
     let w = c.options.window;
     let raw_b = bias_stability_gapless_dph(time, &stream.rate_dph[k0..], w);
     let b = bias_stability_gapless_dph(time, &out, w).unwrap_or(f64::NAN);
@@ -309,10 +309,10 @@ fn diagnosed_row(
         aug.cv_rms_dph,
         base.cv_rms_dph,
         time[0],
-        c.series.time_s.first().map_or(0, |t0| {
-            let k = stream.time_s.partition_point(|t| t < t0);
+        {
+            let k = stream.time_s.partition_point(|t| *t < c.series.start_s);
             k.abs_diff(k0)
-        }),
+        },
         a.recording.display()
     ));
     c.rows.push(ModelRow {

@@ -30,8 +30,9 @@ pub struct TrainArgs {
     /// Train on samples up to this time, s (recording only).
     #[arg(long, value_name = "S", requires = "recording")]
     pub to_s: Option<f64>,
-    /// Average features and targets over blocks of N samples (recording only; the paper: 100).
-    #[arg(long, value_name = "N", default_value_t = 1, requires = "recording")]
+    /// Average features and targets over blocks of N samples (recording only; 100: the paper's
+    /// 100 s means; 1: raw 1 Hz).
+    #[arg(long, value_name = "N", default_value_t = rlg_train::protocol::TRAIN_BLOCK, requires = "recording")]
     pub block: usize,
     /// Gaussian kernel width σ of Eq. (8), in standardised input units [default: tuned by
     /// cross-validation, with --c].
@@ -74,6 +75,18 @@ pub fn run(a: &TrainArgs, command_line: &str) -> anyhow::Result<()> {
         (None, None) => anyhow::bail!("give --table FILE or --recording FILE"),
     };
     let provenance = Provenance::from_file(path, command_line)?;
+    // The exact solve's size is known now: refuse before minutes of tuning, not after.
+    if a.budget.is_none() && data.x.len() > rlg_train::lssvm::solve::MAX_EXACT_SAMPLES {
+        return Err(rlg_train::lssvm::LssvmError::TooLarge {
+            samples: data.x.len(),
+            max: rlg_train::lssvm::solve::MAX_EXACT_SAMPLES,
+        })
+        .with_context(|| format!("training on {}", path.display()));
+    }
+    if let Some(r) = &rec {
+        // A dT/dt model needs the board's 1 Hz stream, with or without tuning.
+        rlg_calibrate::check_stream(r, &path.display().to_string())?;
+    }
     let (sigma, c) = match (a.sigma, a.c) {
         (Some(s), Some(c)) => (s, c),
         _ => {
