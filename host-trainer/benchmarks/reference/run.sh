@@ -22,3 +22,4 @@ rlg="$root/target/release/rlg"
 "$rlg" bench-lssvm --data-dir "$data" --par seq --reps "$reps" "$@"
 "$rlg" bench-lssvm --data-dir "$data" --par rayon --reps "$reps" "$@"
 "$venv/bin/python" "$here/reference.py" "$data" --reps "$reps"
+# Not run here (about 5 min): `rlg calibrate` vs scikit-learn on a 12-day record: calibrate_bench.sh
