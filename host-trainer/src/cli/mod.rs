@@ -1,5 +1,6 @@
 //! The `rlg` command line: argument parsing and printing on top of the library.
 
+pub mod bench_length;
 pub mod benchmark_diagnose;
 pub mod benchmark_lssvm;
 pub mod calibrate;
@@ -50,6 +51,8 @@ pub enum Command {
     SparseReport(benchmark_lssvm::SparseReportArgs),
     /// Diagnose where a recording departs from a physics model and which term is missing.
     Diagnose(diagnose::DiagnoseArgs),
+    /// Time and peak memory of the diagnosis against the record's length (default 30 days).
+    BenchDiagnoseLength(bench_length::BenchLengthArgs),
     /// Run the concealed-effect benchmark of the diagnosis and print its table.
     BenchmarkDiagnose(benchmark_diagnose::BenchmarkDiagnoseArgs),
     /// Turn a diagnosis into compensation features, retrain on them and compare held out.
@@ -82,6 +85,7 @@ impl Cli {
             Command::SparseReport(a) => benchmark_lssvm::run_sparse(&a),
             Command::Diagnose(a) => diagnose::run(&a),
             Command::BenchmarkDiagnose(a) => benchmark_diagnose::run(&a),
+            Command::BenchDiagnoseLength(a) => bench_length::run(&a),
             Command::CloseLoop(a) => close_loop::run(&a, command_line),
             Command::BenchmarkCloseLoop(a) => close_loop::run_benchmark(&a),
             Command::Resample(a) => resample::run(&a),

@@ -1,0 +1,95 @@
+//! `rlg bench-diagnose-length`: time and peak memory of the diagnosis against the record's
+//! length, on the shipped dynamic scenario repeated to N days, beside the shipped 31 h
+//! record in the same run (the reference the ratios are quoted against).
+
+use std::time::Instant;
+
+use rlg_diagnose::{diagnose, Options, PhysicsModel};
+use rlg_simulate::scenario::Segment;
+
+/// Arguments of `rlg bench-diagnose-length`.
+#[derive(Debug, clap::Args)]
+pub struct BenchLengthArgs {
+    /// Record lengths to diagnose, days (comma-separated).
+    #[arg(long, value_name = "DAYS", value_delimiter = ',', default_value = "30")]
+    pub days: Vec<f64>,
+    /// Simulation seed.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    pub seed: u64,
+}
+
+/// The process's peak resident memory so far, MB (Linux `VmHWM`; `None` elsewhere).
+fn peak_mb() -> Option<f64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let l = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = l.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
+}
+
+/// The shipped dynamic scenario with its cycle repeated to cover `days` (at least its own
+/// four cycles).
+fn scenario(days: f64) -> anyhow::Result<rlg_simulate::Scenario> {
+    let mut s = rlg_simulate::shipped::dynamic()?;
+    for seg in &mut s.profile {
+        if let Segment::Repeat { count, segments } = seg {
+            let cycle_s: f64 = segments
+                .iter()
+                .map(|g| match g {
+                    Segment::Hold { duration_s } => *duration_s,
+                    // 55 °C at 1 °C/min.
+                    _ => 3300.0,
+                })
+                .sum();
+            *count = ((days * 86_400.0 / cycle_s).ceil() as u32).max(*count);
+        }
+    }
+    Ok(s)
+}
+
+/// Runs the benchmark and prints one row per length.
+pub fn run(a: &BenchLengthArgs) -> anyhow::Result<()> {
+    for d in &a.days {
+        anyhow::ensure!(
+            d.is_finite() && *d > 0.0 && *d <= 46.0,
+            "--days {d}: give lengths up to 46 days (the diagnosis' limit)"
+        );
+    }
+    println!(
+        "| record | samples | wall s | per day, s | peak memory after, MB | verdict |\n|---|---:|---:|---:|---:|---|"
+    );
+    let mut reference: Option<f64> = None;
+    let lengths = std::iter::once(None).chain(a.days.iter().map(|d| Some(*d)));
+    for days in lengths {
+        let sc = match days {
+            None => rlg_simulate::shipped::dynamic()?,
+            Some(d) => scenario(d)?,
+        };
+        let sim = rlg_simulate::simulate(&sc, a.seed)?;
+        let rec = sim.recording;
+        let span_d = (rec.time_s.last().unwrap_or(&0.0) - rec.time_s[0]) / 86_400.0;
+        let t0 = Instant::now();
+        let d = diagnose(&rec, &PhysicsModel::paper(), &Options::default())?;
+        let wall = t0.elapsed().as_secs_f64();
+        let per_day = wall / span_d;
+        let ratio = reference.map_or_else(String::new, |r| {
+            format!(" ({:.2}× the 31 h record's)", per_day / r)
+        });
+        reference.get_or_insert(per_day);
+        println!(
+            "| {} {span_d:.1} days | {} | {wall:.1} | {per_day:.2}{ratio} | {} | {} |",
+            if days.is_none() {
+                "shipped,"
+            } else {
+                "repeated,"
+            },
+            rec.len(),
+            peak_mb().map_or("—".into(), |m| format!("{m:.0}")),
+            serde_json::to_value(d.verdict)?.as_str().unwrap_or("?")
+        );
+    }
+    println!(
+        "\nPeak memory is the process's high-water mark after each row (the simulation's \
+         memory included; rows run in order, so a row's figure is at least the previous one's)."
+    );
+    Ok(())
+}
