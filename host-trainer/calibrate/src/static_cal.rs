@@ -3,7 +3,9 @@
 //! minutes, reduced to burst means by `rlg resample --bursts`) or for soak plateaus.
 //!
 //! * Points: each row of a sparse recording (median step above 1.1 s) is one point; a
-//!   continuous 1 Hz recording is reduced to means of `block` samples.
+//!   continuous 1 Hz recording is reduced to means of `block` samples over its soak plateaus
+//!   (blocks over which T moves less than [`PLATEAU_MAX_C`]), or over all of it when it has
+//!   fewer than [`MIN_PLATEAU_POINTS`] such blocks.
 //! * Models: a polynomial in T (degree by CV) and the LS-SVM on [T] with a linear trend in T
 //!   beside the kernel ([`train_with_trend`]: a steep absolute trend is one coefficient rather
 //!   than kernel coefficients that cancel in f32), σ and c by CV; exact up to `budget` points,
@@ -27,6 +29,11 @@ use rlg_train::lssvm::tune::{fold_indices, CvPoint, Grid, Tuned, Validation, PAR
 use rlg_train::model::{ModelFile, Provenance};
 
 use crate::MAX_POLY_DEGREE;
+
+/// A block of a continuous stream is a soak plateau when T moves less than this over it, °C.
+pub const PLATEAU_MAX_C: f64 = 0.05;
+/// Fewest plateau blocks for a model on plateaus alone.
+pub const MIN_PLATEAU_POINTS: usize = 10;
 
 /// Options of [`calibrate_static`].
 #[derive(Clone, Debug, PartialEq)]
@@ -113,17 +120,39 @@ pub fn points_of(rec: &Recording, block: usize) -> anyhow::Result<(Vec<(f64, f64
             format!("each row a point (a row every {dt:.0} s: burst or plateau means)"),
         ));
     }
-    let pts: Vec<(f64, f64)> = good
-        .chunks_exact(block)
-        .map(|c| {
-            let n = c.len() as f64;
-            (
-                c.iter().map(|&k| rec.temp_c[k]).sum::<f64>() / n,
-                c.iter().map(|&k| rec.rate_dph[k]).sum::<f64>() / n,
-            )
-        })
+    // Soak plateaus: blocks over which the temperature moved less than PLATEAU_MAX_C, so the
+    // rate terms a static model leaves out are near zero in them. Without enough such blocks
+    // (a record of ramps only), every block is taken, and the description says so.
+    let mean = |c: &[usize], v: &[f64]| c.iter().map(|&k| v[k]).sum::<f64>() / c.len() as f64;
+    let blocks: Vec<&[usize]> = good.chunks_exact(block).collect();
+    let held: Vec<(f64, f64)> = blocks
+        .iter()
+        .filter(|c| (rec.temp_c[c[c.len() - 1]] - rec.temp_c[c[0]]).abs() < PLATEAU_MAX_C)
+        .map(|c| (mean(c, &rec.temp_c), mean(c, &rec.rate_dph)))
         .collect();
-    Ok((pts, format!("means of {block} samples of a 1 Hz stream")))
+    if held.len() >= MIN_PLATEAU_POINTS {
+        let n_held = held.len();
+        return Ok((
+            held,
+            format!(
+                "means of {block} samples of a 1 Hz stream where T moved less than \
+                 {PLATEAU_MAX_C} °C (soak plateaus; {n_held} of {} blocks)",
+                blocks.len()
+            ),
+        ));
+    }
+    let pts: Vec<(f64, f64)> = blocks
+        .iter()
+        .map(|c| (mean(c, &rec.temp_c), mean(c, &rec.rate_dph)))
+        .collect();
+    Ok((
+        pts,
+        format!(
+            "means of {block} samples of a 1 Hz stream, ramps included (only {} blocks held T \
+             within {PLATEAU_MAX_C} °C)",
+            held.len()
+        ),
+    ))
 }
 
 fn validation_for(n: usize) -> Validation {

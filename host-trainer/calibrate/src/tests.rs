@@ -149,3 +149,21 @@ fn even_temperature_calibrates_and_says_so() {
     let b = |n: &str| c.row(n).unwrap().held_out.as_ref().unwrap().stability_dph;
     assert!(b(LSSVM) < 0.5 * b(RAW), "{} vs {}", b(LSSVM), b(RAW));
 }
+
+/// A continuous chamber run with holds: the static model is fitted on the soak plateaus only.
+#[test]
+fn static_on_a_continuous_stream_takes_the_soak_plateaus() {
+    let rec = chamber(2, 0.002, 5);
+    let (pts, from) = static_cal::points_of(&rec, 100).unwrap();
+    assert!(from.contains("soak plateaus"), "{from}");
+    // Holds at −10 and 50 °C only: 180 of the 324 blocks (the ramps' 144 left out).
+    assert!(pts
+        .iter()
+        .all(|p| (p.0 + 10.0).abs() < 0.05 || (p.0 - 50.0).abs() < 0.05));
+    let all = rec.len() / 100;
+    assert!(
+        pts.len() >= 10 && pts.len() + 100 < all,
+        "{} of {all}",
+        pts.len()
+    );
+}
