@@ -17,7 +17,8 @@ Steps, as `rlg calibrate` takes them (host-trainer/calibrate/src/lib.rs):
   rlg_io::cycles does: boundaries mid-way through the low holds);
 * Pipeline(StandardScaler, Nystroem(rbf, gamma = 1/(2 sigma^2), M components),
   Ridge(alpha = 1/c)) in GridSearchCV over the same coarse sigma x c grid (9 x 7) with
-  LeaveOneGroupOut over the cycles; best point by mean out-of-fold RMSE;
+  LeaveOneGroupOut over the cycles, or, beyond MAX_FOLDS = 10 cycles, over MAX_FOLDS runs of
+  consecutive whole cycles (rlg's folds); best point by mean out-of-fold RMSE;
 * refit of the best point on all 100 s training means, prediction of the held-out 1 Hz
   samples, held-out 100 s bias stability: sample standard deviation of consecutive
   non-overlapping 100-sample means of rate - model.
@@ -49,6 +50,7 @@ RATE_TAU_S = 60.0  # rlg_train::protocol::RATE_TAU_S
 BLOCK = 100  # 100 s means (rlg_train::protocol::TRAIN_BLOCK)
 WINDOW = 100  # 100 s bias stability
 MAX_TUNE_MEANS = 1500  # rlg_calibrate::MAX_TUNE_MEANS
+MAX_FOLDS = 10  # rlg_calibrate::MAX_FOLDS
 SIGMAS = np.exp(np.linspace(math.log(0.05), math.log(5.0), 9))  # Grid::default()
 CS = np.exp(np.linspace(math.log(0.1), math.log(1e5), 7))
 PREDICT_CHUNK = 16384  # rows per predict call: all 5e5 held-out rows x M float64 at once are GBs
@@ -201,6 +203,11 @@ def main():
     first_t = t_tr[: len(y_tune) * tune_block : tune_block]
     groups = np.minimum(np.searchsorted(ends[:train_cycles], first_t, side="right"),
                         train_cycles - 1)
+    # rlg's folds: beyond MAX_FOLDS cycles, runs of consecutive whole cycles form MAX_FOLDS
+    # groups (rlg_calibrate::validation_of), so both tools fit the same number of folds.
+    distinct = np.unique(groups)
+    if len(distinct) > MAX_FOLDS:
+        groups = np.searchsorted(distinct, groups) * MAX_FOLDS // len(distinct)
     x_100, y_100 = block_means(x_tr, BLOCK), block_means(y_tr, BLOCK)
     stages["split, cycles, means"] = time.perf_counter() - t0
 
@@ -260,7 +267,7 @@ def main():
     print(f"samples {len(temp)}, cycles {len(ends)} ({cyc_note}), train end {train_end:.1f} s, "
           f"{train_cycles} training cycles")
     print(f"training samples {int(train.sum())}, tuning means {len(y_tune)} of {tune_block} s, "
-          f"{len(np.unique(groups))} folds (leave one cycle out), training means "
+          f"{len(np.unique(groups))} folds (leave one group of whole cycles out), training means "
           f"{len(y_100)} of {BLOCK} s, held-out samples {len(y_ho)}")
     for name, s in stages.items():
         print(f"  {name:<34} {s:8.2f} s")

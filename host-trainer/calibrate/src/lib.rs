@@ -42,8 +42,11 @@ use rlg_io::recording::Recording;
 use rlg_train::dataset::{self, Dataset, RecordingSelection};
 use rlg_train::export;
 use rlg_train::features::{self, FeatureSeries};
-use rlg_train::lssvm::sparse::{train_reduced, Reduction};
-use rlg_train::lssvm::tune::{fold_indices, tune, CvPoint, Grid, Tuned, Validation, PARSIMONY};
+use rlg_train::lssvm::fixed_size::FixedSizeOptions;
+use rlg_train::lssvm::sparse::{train_reduced, FixedSizePath, Reduction};
+use rlg_train::lssvm::tune::{
+    by_sigma, fold_indices, tune, CvPoint, Grid, Tuned, Validation, PARSIMONY,
+};
 use rlg_train::lssvm::Lssvm;
 use rlg_train::model::{ModelFile, Provenance};
 use rlg_train::protocol::{CV, RATE_TAU_S, SUPPORT_VECTORS, TRAIN_BLOCK};
@@ -410,6 +413,42 @@ fn cv_rms(
     (count > 0).then(|| (ss / count as f64).sqrt())
 }
 
+/// [`cv_rms`] of `k` models fitted together per fold (`fit` gives each model's held-out
+/// predictions, `None` where it failed): the same sums, model by model.
+fn cv_rms_many(
+    folds: &[Vec<usize>],
+    n: usize,
+    y: &[f64],
+    k: usize,
+    fit: impl Fn(&[usize], &[usize]) -> Vec<Option<Vec<f64>>>,
+) -> Vec<Option<f64>> {
+    let mut ss = vec![Some(0.0); k];
+    let mut count = 0usize;
+    for f in folds {
+        let mut out = vec![false; n];
+        for &i in f {
+            out[i] = true;
+        }
+        let train: Vec<usize> = (0..n).filter(|&i| !out[i]).collect();
+        let preds = fit(&train, f);
+        for (s, pred) in ss.iter_mut().zip(&preds) {
+            *s = match (*s, pred) {
+                (Some(mut acc), Some(pred)) => {
+                    for (p, &i) in pred.iter().zip(f) {
+                        acc += (y[i] - p).powi(2);
+                    }
+                    Some(acc)
+                }
+                _ => None,
+            };
+        }
+        count += f.len();
+    }
+    ss.into_iter()
+        .map(|s| s.filter(|_| count > 0).map(|s| (s / count as f64).sqrt()))
+        .collect()
+}
+
 fn poly_of(x: &[f64], y: &[f64], idx: &[usize], degree: usize) -> Option<PolyFit> {
     let xs: Vec<f64> = idx.iter().map(|&i| x[i]).collect();
     let ys: Vec<f64> = idx.iter().map(|&i| y[i]).collect();
@@ -434,7 +473,6 @@ fn choose_board(
     rate_tau_s: f64,
     progress: &ProgressBar,
 ) -> anyhow::Result<(BoardChoice, ModelFile)> {
-    use rayon::prelude::*;
     let n = tune_data.x.len();
     let exact = (tuned.sigma, tuned.c);
     let mut points: Vec<(f64, f64)> = tuned.curve.iter().map(|p| (p.sigma, p.c)).collect();
@@ -442,33 +480,33 @@ fn choose_board(
     progress.reset();
     progress.set_message(format!("tuning the {budget}-vector table"));
     progress.set_length(points.len() as u64);
-    let scored: Vec<CvPoint> = points
-        .par_iter()
-        .map(|&(sigma, c)| {
-            let cv = cv_rms(folds, n, &tune_data.y_dph, |tr, te| {
-                let xs: Vec<Vec<f64>> = tr.iter().map(|&i| tune_data.x[i].clone()).collect();
-                let ys: Vec<f64> = tr.iter().map(|&i| tune_data.y_dph[i]).collect();
-                let m = train_reduced(
-                    &tune_data.features,
-                    &xs,
-                    &ys,
-                    sigma,
-                    c,
-                    budget.min(xs.len()),
-                    Reduction::FIXED_SIZE,
-                )
-                .ok()?;
-                Some(te.iter().map(|&i| m.predict(&tune_data.x[i])).collect())
-            })
-            .unwrap_or(f64::NAN);
-            progress.inc(1);
-            CvPoint {
-                sigma,
-                c,
-                cv_rms_dph: cv,
-            }
-        })
-        .collect();
+    // One task per σ: the active set and normal equations of a fold serve every c.
+    let scored: Vec<CvPoint> = by_sigma(&points, |sigma, cs| {
+        let cv = cv_rms_many(folds, n, &tune_data.y_dph, cs.len(), |tr, te| {
+            let xs: Vec<Vec<f64>> = tr.iter().map(|&i| tune_data.x[i].clone()).collect();
+            let ys: Vec<f64> = tr.iter().map(|&i| tune_data.y_dph[i]).collect();
+            let opts = FixedSizeOptions::with_budget(budget.min(xs.len()));
+            let Ok(path) = FixedSizePath::new(&tune_data.features, &xs, &ys, sigma, &opts) else {
+                return vec![None; cs.len()];
+            };
+            cs.iter()
+                .map(|&c| {
+                    let m = path.model(c).ok()?;
+                    Some(te.iter().map(|&i| m.predict(&tune_data.x[i])).collect())
+                })
+                .collect()
+        });
+        progress.inc(cs.len() as u64);
+        cv
+    })
+    .into_iter()
+    .zip(&points)
+    .map(|(cv, &(sigma, c))| CvPoint {
+        sigma,
+        c,
+        cv_rms_dph: cv.unwrap_or(f64::NAN),
+    })
+    .collect();
     progress.finish_and_clear();
     let exact_point = *scored.last().unwrap_or(&CvPoint {
         sigma: exact.0,
@@ -948,8 +986,11 @@ pub fn calibrate(
     let w = opts.window;
     let time: Vec<f64> = keep.iter().map(|&k| stream.time_s[k]).collect();
     let rate: Vec<f64> = keep.iter().map(|&k| stream_series.rows[k][1]).collect();
-    let compensate = |pred: &dyn Fn(&[f64]) -> f64| -> Vec<f64> {
-        keep.iter()
+    // In parallel: a 512-vector LS-SVM over a million held-out samples is 5·10⁸ kernel
+    // values; the outputs are the serial ones (each sample on its own).
+    let compensate = |pred: &(dyn Fn(&[f64]) -> f64 + Sync)| -> Vec<f64> {
+        use rayon::prelude::*;
+        keep.par_iter()
             .map(|&k| stream.rate_dph[k] - pred(&stream_series.rows[k]))
             .collect()
     };

@@ -195,15 +195,15 @@ pub struct FixedSizeSolution {
     pub linear: Vec<f64>,
 }
 
-/// Solves the fixed-size LS-SVM on standardised rows `z` and targets `y` (see the module
-/// doc). Validates σ, c, lengths and finiteness.
-pub fn solve_fixed_size(
+/// The checks of [`solve_fixed_size`]: σ and c positive and finite, a non-empty budget and
+/// data, lengths that agree, finite inputs and targets.
+pub(crate) fn validate(
     z: &Rows,
     y: &[f64],
     sigma: f64,
     c: f64,
     opts: &FixedSizeOptions,
-) -> Result<FixedSizeSolution, LssvmError> {
+) -> Result<(), LssvmError> {
     for (name, value) in [("sigma", sigma), ("c", c)] {
         if !(value > 0.0 && value.is_finite()) {
             return Err(LssvmError::HyperParameter { name, value });
@@ -233,6 +233,19 @@ pub fn solve_fixed_size(
             feature: None,
         });
     }
+    Ok(())
+}
+
+/// Solves the fixed-size LS-SVM on standardised rows `z` and targets `y` (see the module
+/// doc). Validates σ, c, lengths and finiteness.
+pub fn solve_fixed_size(
+    z: &Rows,
+    y: &[f64],
+    sigma: f64,
+    c: f64,
+    opts: &FixedSizeOptions,
+) -> Result<FixedSizeSolution, LssvmError> {
+    validate(z, y, sigma, c, opts)?;
     let active = select_active_set(z, opts.budget, sigma, opts.trials, opts.seed);
     solve_on_active(z, y, sigma, c, active)
 }
@@ -261,6 +274,31 @@ pub fn solve_on_active_with(
     c: f64,
     active: Vec<usize>,
 ) -> Result<FixedSizeSolution, LssvmError> {
+    normal_on_active_with(z, y, lin, sigma, active)?.solve(c)
+}
+
+/// The normal equations of [`solve_on_active_with`] without the ridge 1/c: the kernel block,
+/// the Nyström map and [Φ 1 L]ᵀ[Φ 1 L] depend on σ and the active set only, so a grid of c
+/// values solves them once each instead of rebuilding them.
+#[derive(Clone, Debug)]
+pub struct ActiveNormal {
+    active: Vec<usize>,
+    p: Mat<f64>,
+    g: Mat<f64>,
+    h: Mat<f64>,
+    r: usize,
+    p_lin: usize,
+}
+
+/// Builds the [`ActiveNormal`] of `z`, `y`, `lin` at σ on `active` (see
+/// [`solve_on_active_with`]).
+pub fn normal_on_active_with(
+    z: &Rows,
+    y: &[f64],
+    lin: &[Vec<f64>],
+    sigma: f64,
+    active: Vec<usize>,
+) -> Result<ActiveNormal, LssvmError> {
     let n = z.len();
     if active.is_empty() || n != y.len() || active.iter().any(|&a| a >= n) {
         return Err(LssvmError::Empty);
@@ -317,30 +355,53 @@ pub fn solve_on_active_with(
         g += gp;
         h += hp;
     }
-    for k in 0..r {
-        g[(k, k)] += 1.0 / c;
-    }
-    let llt = g.llt(Side::Lower).map_err(|e| match e {
-        faer::linalg::solvers::LltError::NonPositivePivot { index } => {
-            LssvmError::NotPositiveDefinite { pivot: index }
-        }
-    })?;
-    let wb = llt.solve(&h);
-    let w = wb.as_ref().subrows(0, r);
-    let alpha_m = &p * w;
-    let alpha: Vec<f64> = (0..m).map(|i| alpha_m[(i, 0)]).collect();
-    let bias = wb[(r, 0)];
-    let linear: Vec<f64> = (0..p_lin).map(|k| wb[(r + 1 + k, 0)]).collect();
-    if !(bias.is_finite() && alpha.iter().chain(&linear).all(|a| a.is_finite())) {
-        return Err(LssvmError::Singular);
-    }
-    Ok(FixedSizeSolution {
+    Ok(ActiveNormal {
         active,
-        alpha,
-        bias,
-        rank: r,
-        linear,
+        p,
+        g,
+        h,
+        r,
+        p_lin,
     })
+}
+
+impl ActiveNormal {
+    /// The solution at regularisation `c`.
+    pub fn solve(&self, c: f64) -> Result<FixedSizeSolution, LssvmError> {
+        if !(c > 0.0 && c.is_finite()) {
+            return Err(LssvmError::HyperParameter {
+                name: "c",
+                value: c,
+            });
+        }
+        let (r, p_lin, m) = (self.r, self.p_lin, self.active.len());
+        let (p, h) = (&self.p, &self.h);
+        let mut g = self.g.clone();
+        for k in 0..r {
+            g[(k, k)] += 1.0 / c;
+        }
+        let llt = g.llt(Side::Lower).map_err(|e| match e {
+            faer::linalg::solvers::LltError::NonPositivePivot { index } => {
+                LssvmError::NotPositiveDefinite { pivot: index }
+            }
+        })?;
+        let wb = llt.solve(&h);
+        let w = wb.as_ref().subrows(0, r);
+        let alpha_m = p * w;
+        let alpha: Vec<f64> = (0..m).map(|i| alpha_m[(i, 0)]).collect();
+        let bias = wb[(r, 0)];
+        let linear: Vec<f64> = (0..p_lin).map(|k| wb[(r + 1 + k, 0)]).collect();
+        if !(bias.is_finite() && alpha.iter().chain(&linear).all(|a| a.is_finite())) {
+            return Err(LssvmError::Singular);
+        }
+        Ok(FixedSizeSolution {
+            active: self.active.clone(),
+            alpha,
+            bias,
+            rank: r,
+            linear,
+        })
+    }
 }
 
 #[cfg(test)]

@@ -49,6 +49,15 @@ impl PackedLower {
         PackedLower { n, data }
     }
 
+    /// Sets the diagonal to 1 + 1/c (the Gaussian kernel's K_ii = 1): the same H as
+    /// [`PackedLower::gaussian`] at that c, without refilling the kernel.
+    pub fn set_diagonal(&mut self, c: f64) {
+        let diag = 1.0 + 1.0 / c;
+        for j in 0..self.n {
+            self.data[offset(self.n, j)] = diag;
+        }
+    }
+
     /// Order of H.
     pub fn n(&self) -> usize {
         self.n

@@ -39,7 +39,7 @@ pub struct Solution {
 /// square f64 and f32 copies: about 12·n² bytes at its peak, 1.7 GB at this size.
 pub const MAX_EXACT_SAMPLES: usize = 12_000;
 
-fn validate(z: &[Vec<f64>], y: &[f64], sigma: f64, c: f64) -> Result<usize, LssvmError> {
+pub(crate) fn validate(z: &[Vec<f64>], y: &[f64], sigma: f64, c: f64) -> Result<usize, LssvmError> {
     if !(sigma > 0.0 && sigma.is_finite()) {
         return Err(LssvmError::HyperParameter {
             name: "sigma",
@@ -198,9 +198,22 @@ pub fn solve_reporting(
     if n < MIXED_MIN_N {
         return factorise(z, y, sigma, c).map(|f| (f.solution, SolvePath::F64));
     }
+    solve_packed(&PackedLower::gaussian(z, sigma, c), z, y, sigma, c)
+}
+
+/// The iterative paths of [`solve_reporting`] (n ≥ [`MIXED_MIN_N`]) on H already filled in
+/// packed form for this σ and c (`PackedLower::gaussian`, `PackedLower::set_diagonal`), so
+/// that a grid over c fills the kernel once per σ. Inputs assumed validated.
+pub fn solve_packed(
+    packed: &PackedLower,
+    z: &[Vec<f64>],
+    y: &[f64],
+    sigma: f64,
+    c: f64,
+) -> Result<(Solution, SolvePath), LssvmError> {
+    let n = z.len();
     let rhs = rhs_y1(y);
-    let packed = PackedLower::gaussian(z, sigma, c);
-    let low_rank = match mixed::solve_low_rank(&packed, z, sigma, c, rhs.as_ref()) {
+    let low_rank = match mixed::solve_low_rank(packed, z, sigma, c, rhs.as_ref()) {
         Ok((x, stats, rank)) => {
             return eliminate(x.as_ref())
                 .map(|(sol, _, _)| (sol, SolvePath::LowRank { rank, stats }))
@@ -208,7 +221,6 @@ pub fn solve_reporting(
         Err(why) => why,
     };
     let h = packed.to_square_lower();
-    drop(packed);
     let h32: Vec<f32> = h.iter().map(|v| *v as f32).collect();
     let why = match mixed::solve(&h, h32, rhs.as_ref()) {
         Ok((x, stats)) => {
@@ -278,7 +290,27 @@ pub fn solve_partially_linear(
             feature: Some("linear column".into()),
         });
     }
-    let llt = llt_f64(&mixed::h_lower(z, sigma, c), n)?;
+    partially_linear_on(&mixed::h_lower(z, sigma, c), lin, y)
+}
+
+/// The diagonal of a column-major n×n H = K + I/c (Gaussian kernel, K_ii = 1) set for `c`:
+/// the kernel part of H does not depend on c, so one fill serves every c of a grid.
+pub fn set_h_diagonal(h: &mut [f64], n: usize, c: f64) {
+    let d = 1.0 + 1.0 / c;
+    for i in 0..n {
+        h[i * n + i] = d;
+    }
+}
+
+/// [`solve_partially_linear`] on the lower triangle of H already filled
+/// ([`mixed::h_lower`], [`set_h_diagonal`]); inputs assumed validated.
+pub fn partially_linear_on(
+    h: &[f64],
+    lin: &[Vec<f64>],
+    y: &[f64],
+) -> Result<PartiallyLinear, LssvmError> {
+    let n = y.len();
+    let llt = llt_f64(h, n)?;
     let p = lin.len();
     // Columns: y, 1, L₁ … L_p.
     let mut rhs = Mat::<f64>::from_fn(n, p + 2, |i, j| match j {

@@ -126,6 +126,64 @@ pub fn train_reduced(
     })
 }
 
+/// The fixed-size model of [`train_reduced`] at one σ, ready for any c: the standardisation,
+/// the active set and the normal equations depend on σ alone, so a grid over c costs one
+/// active-set search and one pass over the data per σ. `model(c)` equals
+/// `train_reduced(…, sigma, c, opts.budget, Reduction::FixedSize { trials, seed })` with
+/// `opts`' trials and seed.
+#[derive(Clone, Debug)]
+pub struct FixedSizePath {
+    features: Vec<String>,
+    scaling: super::Scaling,
+    support: Vec<Vec<f64>>,
+    normal: fixed_size::ActiveNormal,
+    sigma: f64,
+}
+
+impl FixedSizePath {
+    /// Standardises `x`, chooses the active set of at most `budget` rows at σ and forms the
+    /// normal equations.
+    pub fn new(
+        features: &[String],
+        x: &[Vec<f64>],
+        y_dph: &[f64],
+        sigma: f64,
+        opts: &FixedSizeOptions,
+    ) -> Result<FixedSizePath, LssvmError> {
+        let (scaling, z) = super::standardised(features, x, y_dph)?;
+        let rows = Rows::from_rows(&z);
+        drop(z);
+        // The checks of `solve_fixed_size`, with c = 1 standing for any valid c.
+        fixed_size::validate(&rows, y_dph, sigma, 1.0, opts)?;
+        let active = select_active_set(&rows, opts.budget, sigma, opts.trials, opts.seed);
+        let support = active.iter().map(|&i| rows.row(i).to_vec()).collect();
+        let normal = fixed_size::normal_on_active_with(&rows, y_dph, &[], sigma, active)?;
+        Ok(FixedSizePath {
+            features: features.to_vec(),
+            scaling,
+            support,
+            normal,
+            sigma,
+        })
+    }
+
+    /// The model at regularisation `c`.
+    pub fn model(&self, c: f64) -> Result<Lssvm, LssvmError> {
+        let s = self.normal.solve(c)?;
+        Ok(Lssvm {
+            features: self.features.clone(),
+            scaling: self.scaling.clone(),
+            support: self.support.clone(),
+            alpha_dph: s.alpha,
+            bias_dph: s.bias,
+            sigma: self.sigma,
+            c,
+            in_kernel: Vec::new(),
+            linear_dph: Vec::new(),
+        })
+    }
+}
+
 /// The partially linear model ([`Lssvm::train_partially_linear`]) as a fixed-size LS-SVM of
 /// at most `budget` support vectors: the active set is chosen on the kernel inputs, and the
 /// linear columns join the bias in the primal solve ([`fixed_size::solve_on_active_with`]).
@@ -300,6 +358,25 @@ mod tests {
             .collect();
         let y = x.iter().map(|r| -7.1 - 2e-4 * r[0] + 2.0 * r[1]).collect();
         (vec!["temp_c".into(), "temp_rate_c_per_s".into()], x, y)
+    }
+
+    /// A path's model at each c is `train_reduced`'s, bit for bit, and the path refuses what
+    /// `train_reduced` refuses.
+    #[test]
+    fn fixed_size_path_equals_train_reduced_at_every_c() {
+        let (f, x, y) = data(300);
+        let path = FixedSizePath::new(&f, &x, &y, 0.6, &FixedSizeOptions::with_budget(24)).unwrap();
+        for c in [0.1, 3.0, 100.0, 1e5] {
+            let a = path.model(c).unwrap();
+            let b = train_reduced(&f, &x, &y, 0.6, c, 24, Reduction::FIXED_SIZE).unwrap();
+            assert_eq!(a, b, "c = {c}");
+        }
+        assert!(path.model(0.0).is_err());
+        assert!(path.model(f64::NAN).is_err());
+        assert!(FixedSizePath::new(&f, &x, &y, -1.0, &FixedSizeOptions::with_budget(24)).is_err());
+        let mut bad = y.clone();
+        bad[7] = f64::NAN;
+        assert!(FixedSizePath::new(&f, &x, &bad, 0.6, &FixedSizeOptions::with_budget(24)).is_err());
     }
 
     /// Both methods respect the budget and, with a budget ≥ n, agree with the exact model on

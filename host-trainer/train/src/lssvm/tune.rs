@@ -217,10 +217,31 @@ fn score(
             (r.iter().map(|v| v * v).sum::<f64>() / r.len() as f64).sqrt()
         });
     }
+    score_row(z, lin, y, folds, sigma, &[c])[0]
+}
+
+/// Largest training fold whose kernel fill is kept for the next c: the kept copy adds
+/// 8·n² bytes to the solve's peak (128 MB here), so beyond it each c fills afresh.
+const SHARED_FILL_MAX: usize = 4000;
+
+/// Out-of-fold RMS at σ and each of `cs` (fold schemes only). The kernel part of a fold's
+/// matrix and of its held-out predictions depends on σ alone, so each fold fills them once
+/// and solves once per c (up to [`SHARED_FILL_MAX`] training rows): the same numbers as a
+/// fill per (σ, c), with the exponentials of one fill instead of `cs.len()`.
+fn score_row(
+    z: &[Vec<f64>],
+    lin: &[Vec<f64>],
+    y: &[f64],
+    folds: &[Vec<usize>],
+    sigma: f64,
+    cs: &[f64],
+) -> Vec<f64> {
     let n = z.len();
-    let mut ss = 0.0;
+    let mut ss = vec![0.0; cs.len()];
+    let mut failed = vec![false; cs.len()];
     let mut count = 0usize;
     let mut held = vec![false; n];
+    let inv = 1.0 / (2.0 * sigma * sigma);
     for fold in folds {
         held.iter_mut().for_each(|h| *h = false);
         fold.iter().for_each(|&i| held[i] = true);
@@ -231,27 +252,85 @@ fn score(
             .iter()
             .map(|col| keep.iter().map(|&i| col[i]).collect())
             .collect();
-        let Ok(sol) = solve::solve_partially_linear(&zt, &lt, &yt, sigma, c) else {
-            return f64::NAN;
-        };
-        let inv = 1.0 / (2.0 * sigma * sigma);
-        for &i in fold {
-            let f: f64 = zt
-                .iter()
-                .zip(&sol.solution.alpha)
-                .map(|(s, a)| a * gauss(s, &z[i], inv))
-                .sum::<f64>()
-                + sol.solution.bias
-                + lin
+        let nt = zt.len();
+        // Eq. (9) without linear columns from MIXED_MIN_N rows on: `solve::solve`'s paths
+        // (low-rank-preconditioned CG first) on one packed fill per σ, as training solves it.
+        let mut packed: Option<super::packed::PackedLower> = None;
+        let mut kernel: Option<Vec<f64>> = None;
+        // Held-out row i's kernel values against the training rows, in training order.
+        let mut k_out: Option<Vec<f64>> = None;
+        for (k, &c) in cs.iter().enumerate() {
+            if failed[k] {
+                continue;
+            }
+            if solve::validate(&zt, &yt, sigma, c).is_err()
+                || lt.iter().flatten().any(|v| !v.is_finite())
+            {
+                failed[k] = true;
+                continue;
+            }
+            let iterative = lin.is_empty() && nt >= solve::MIXED_MIN_N;
+            let sol = if iterative {
+                let p = packed
+                    .get_or_insert_with(|| super::packed::PackedLower::gaussian(&zt, sigma, c));
+                p.set_diagonal(c);
+                solve::solve_packed(p, &zt, &yt, sigma, c).map(|(solution, _)| {
+                    solve::PartiallyLinear {
+                        solution,
+                        beta: Vec::new(),
+                    }
+                })
+            } else {
+                let mut h = match &kernel {
+                    Some(h) => h.clone(),
+                    None => {
+                        let h = super::mixed::h_lower(&zt, sigma, c);
+                        if nt <= SHARED_FILL_MAX && cs.len() > 1 {
+                            kernel = Some(h.clone());
+                        }
+                        h
+                    }
+                };
+                solve::set_h_diagonal(&mut h, nt, c);
+                solve::partially_linear_on(&h, &lt, &yt)
+            };
+            let Ok(sol) = sol else {
+                failed[k] = true;
+                continue;
+            };
+            let ko = k_out.get_or_insert_with(|| {
+                fold.iter()
+                    .flat_map(|&i| zt.iter().map(move |s| (s, i)))
+                    .map(|(s, i)| gauss(s, &z[i], inv))
+                    .collect()
+            });
+            for (r, &i) in fold.iter().enumerate() {
+                let f: f64 = ko[r * nt..(r + 1) * nt]
                     .iter()
-                    .zip(&sol.beta)
-                    .map(|(col, b)| b * col[i])
-                    .sum::<f64>();
-            ss += (y[i] - f).powi(2);
-            count += 1;
+                    .zip(&sol.solution.alpha)
+                    .map(|(g, a)| a * g)
+                    .sum::<f64>()
+                    + sol.solution.bias
+                    + lin
+                        .iter()
+                        .zip(&sol.beta)
+                        .map(|(col, b)| b * col[i])
+                        .sum::<f64>();
+                ss[k] += (y[i] - f).powi(2);
+            }
         }
+        count += fold.len();
     }
-    (ss / count as f64).sqrt()
+    ss.iter()
+        .zip(&failed)
+        .map(|(s, f)| {
+            if *f {
+                f64::NAN
+            } else {
+                (s / count as f64).sqrt()
+            }
+        })
+        .collect()
 }
 
 /// The cross-validated RMS, °/h, of one (σ, c) of the (partially linear) model under
@@ -291,18 +370,58 @@ fn evaluate(
     pairs: &[(f64, f64)],
     progress: &ProgressBar,
 ) -> Vec<CvPoint> {
-    pairs
-        .par_iter()
-        .map(|&(sigma, c)| {
-            let cv_rms_dph = score(z, lin, y, folds, sigma, c);
-            progress.inc(1);
-            CvPoint {
-                sigma,
-                c,
-                cv_rms_dph,
+    if folds.is_empty() {
+        return pairs
+            .par_iter()
+            .map(|&(sigma, c)| {
+                let cv_rms_dph = score(z, lin, y, folds, sigma, c);
+                progress.inc(1);
+                CvPoint {
+                    sigma,
+                    c,
+                    cv_rms_dph,
+                }
+            })
+            .collect();
+    }
+    // One task per σ: its c values share the kernel fills (`score_row`).
+    by_sigma(pairs, |sigma, cs| {
+        let v = score_row(z, lin, y, folds, sigma, cs);
+        progress.inc(cs.len() as u64);
+        v
+    })
+    .into_iter()
+    .zip(pairs)
+    .map(|(cv_rms_dph, &(sigma, c))| CvPoint {
+        sigma,
+        c,
+        cv_rms_dph,
+    })
+    .collect()
+}
+
+/// Evaluates `row(σ, cs)` (one value per c of `cs`) once per distinct σ of `pairs`, the σ in
+/// parallel (rayon), and returns the values in the order of `pairs`: for scores whose work
+/// at one σ is shared by its c values.
+pub fn by_sigma<T: Clone + Send>(
+    pairs: &[(f64, f64)],
+    row: impl Fn(f64, &[f64]) -> Vec<T> + Sync,
+) -> Vec<T> {
+    let mut rows: Vec<(f64, Vec<f64>)> = Vec::new();
+    let mut at = Vec::with_capacity(pairs.len());
+    for &(sigma, c) in pairs {
+        let r = match rows.iter().position(|r| r.0.to_bits() == sigma.to_bits()) {
+            Some(r) => r,
+            None => {
+                rows.push((sigma, Vec::new()));
+                rows.len() - 1
             }
-        })
-        .collect()
+        };
+        rows[r].1.push(c);
+        at.push((r, rows[r].1.len() - 1));
+    }
+    let values: Vec<Vec<T>> = rows.par_iter().map(|(s, cs)| row(*s, cs)).collect();
+    at.iter().map(|&(r, k)| values[r][k].clone()).collect()
 }
 
 /// Chooses σ and c for an exact LS-SVM on raw inputs `x` (columns named by `features`) and
@@ -494,6 +613,66 @@ mod tests {
         }
         let want = (ss / 60.0).sqrt();
         assert!((loo - want).abs() < 1e-8 * want, "{loo} vs {want}");
+    }
+
+    /// A row of c values at one σ scores each c exactly as a refit per (fold, c) through the
+    /// public solvers does: the exact Cholesky below `MIXED_MIN_N` training rows (with and
+    /// without a linear column), `solve::solve`'s iterative paths above it.
+    #[test]
+    fn a_row_of_c_scores_as_separate_refits() {
+        for (n, with_lin) in [(300, false), (300, true), (1_200, false)] {
+            let (z, y) = crate::lssvm::test_data::scattered(n);
+            let lin: Vec<Vec<f64>> = if with_lin {
+                vec![z.iter().map(|r| r[0] * 0.3).collect()]
+            } else {
+                Vec::new()
+            };
+            let fo = fold_indices(&Validation::Contiguous { folds: 10 }, n).unwrap();
+            let cs = [0.3, 50.0, 1e4];
+            let row = score_row(&z, &lin, &y, &fo, 0.7, &cs);
+            for (k, &c) in cs.iter().enumerate() {
+                let mut ss = 0.0;
+                for fold in &fo {
+                    let keep: Vec<usize> = (0..n).filter(|i| !fold.contains(i)).collect();
+                    let zt: Vec<Vec<f64>> = keep.iter().map(|&i| z[i].clone()).collect();
+                    let yt: Vec<f64> = keep.iter().map(|&i| y[i]).collect();
+                    let lt: Vec<Vec<f64>> = lin
+                        .iter()
+                        .map(|col| keep.iter().map(|&i| col[i]).collect())
+                        .collect();
+                    let sol = if with_lin || zt.len() < solve::MIXED_MIN_N {
+                        solve::solve_partially_linear(&zt, &lt, &yt, 0.7, c).unwrap()
+                    } else {
+                        solve::PartiallyLinear {
+                            solution: solve::solve(&zt, &yt, 0.7, c).unwrap(),
+                            beta: Vec::new(),
+                        }
+                    };
+                    let inv = 1.0 / (2.0 * 0.7 * 0.7);
+                    for &i in fold {
+                        let f = zt
+                            .iter()
+                            .zip(&sol.solution.alpha)
+                            .map(|(s, a)| a * gauss(s, &z[i], inv))
+                            .sum::<f64>()
+                            + sol.solution.bias
+                            + lin
+                                .iter()
+                                .zip(&sol.beta)
+                                .map(|(l, b)| b * l[i])
+                                .sum::<f64>();
+                        ss += (y[i] - f).powi(2);
+                    }
+                }
+                let want = (ss / n as f64).sqrt();
+                assert_eq!(
+                    row[k].to_bits(),
+                    want.to_bits(),
+                    "n {n}, c {c}: {} vs {want}",
+                    row[k]
+                );
+            }
+        }
     }
 
     /// On a smooth 1-D target with known noise, the chosen σ is neither the grid's smallest
