@@ -1041,7 +1041,8 @@ pub fn calibrate(
         }
     }
     let held_sw = judge(sw_out);
-    let held_ls = judge(compensate(&|r| lssvm.predict(r)));
+    let lssvm_at = lssvm.predictor();
+    let held_ls = judge(compensate(&|r| lssvm_at.predict(r)));
     let held_board = judge(if has_test {
         board_output(stream, &board_model, &keep)?
     } else {

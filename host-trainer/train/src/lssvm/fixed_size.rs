@@ -26,7 +26,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
-use super::kernel::gauss;
+use super::kernel::{gauss, gauss_rows};
 use super::LssvmError;
 
 /// Eigenvalues of K_MM below this fraction of the largest are dropped from the Nyström map:
@@ -123,14 +123,18 @@ pub fn select_active_set(z: &Rows, m: usize, sigma: f64, trials: usize, seed: u6
         .map(|i| kaa[i * m..(i + 1) * m].iter().sum::<f64>() - 1.0)
         .collect();
     let mut kq = vec![0.0; m];
+    // The active rows, contiguous, for `gauss_rows`.
+    let mut af: Vec<f64> = active
+        .iter()
+        .flat_map(|&a| z.row(a).iter().copied())
+        .collect();
+    let dim = z.dim;
     for _ in 0..trials {
         let q = rng.random_range(0..n);
         if member[q] {
             continue;
         }
-        for (k, &a) in kq.iter_mut().zip(&active) {
-            *k = gauss(z.row(q), z.row(a), inv);
-        }
+        gauss_rows(&af, dim, z.row(q), inv, &mut kq);
         let total: f64 = kq.iter().sum();
         // Change of Σ_ij K when member i is replaced by q: 2·(Σ_{j≠i} K(q,a_j) − rows[i]).
         let (best, delta) = (0..m)
@@ -143,6 +147,7 @@ pub fn select_active_set(z: &Rows, m: usize, sigma: f64, trials: usize, seed: u6
         member[old] = false;
         member[q] = true;
         active[best] = q;
+        af[best * dim..(best + 1) * dim].copy_from_slice(z.row(q));
         for j in 0..m {
             if j == best {
                 continue;
@@ -325,7 +330,10 @@ pub fn normal_on_active_with(
     }
     // P = U_r Λ_r^{−1/2} (M×r): φ(x)ᵀ = k_M(x)ᵀ P, and α = P w.
     let p = Mat::<f64>::from_fn(m, r, |i, k| evd.U()[(i, keep[k])] / lam[keep[k]].sqrt());
-    let active_rows: Vec<&[f64]> = active.iter().map(|&a| z.row(a)).collect();
+    let active_flat: Vec<f64> = active
+        .iter()
+        .flat_map(|&a| z.row(a).iter().copied())
+        .collect();
 
     // Normal equations of [Φ 1], accumulated chunk by chunk (in parallel over chunks). The
     // partial sums are collected in chunk order and added serially, so the result does not
@@ -335,8 +343,11 @@ pub fn normal_on_active_with(
         .map(|ch| {
             let lo = ch * CHUNK_ROWS;
             let hi = (lo + CHUNK_ROWS).min(n);
-            let kc =
-                Mat::<f64>::from_fn(hi - lo, m, |i, j| gauss(z.row(lo + i), active_rows[j], inv));
+            let mut kr = vec![0.0; (hi - lo) * m];
+            for (i, row) in kr.chunks_mut(m).enumerate() {
+                gauss_rows(&active_flat, z.dim, z.row(lo + i), inv, row);
+            }
+            let kc = Mat::<f64>::from_fn(hi - lo, m, |i, j| kr[i * m + j]);
             let phi = &kc * &p;
             let aug = Mat::<f64>::from_fn(hi - lo, r + 1 + p_lin, |i, k| match k {
                 k if k < r => phi[(i, k)],

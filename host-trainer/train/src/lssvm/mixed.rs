@@ -26,7 +26,7 @@ use faer::prelude::*;
 use faer::{Accum, Par};
 use rayon::prelude::*;
 
-use super::kernel::gauss;
+use super::kernel::gauss_rows;
 use super::packed::PackedLower;
 use super::pivoted::LowRank;
 
@@ -55,9 +55,7 @@ fn fill_lower(z: &[Vec<f64>], sigma: f64, c: f64, out: &mut [f64]) {
     let fill = |j: usize, col: &mut [f64]| {
         let zj = &flat[j * dim..(j + 1) * dim];
         col[j] = diag;
-        for (i, v) in col.iter_mut().enumerate().skip(j + 1) {
-            *v = gauss(&flat[i * dim..(i + 1) * dim], zj, inv);
-        }
+        gauss_rows(&flat[(j + 1) * dim..], dim, zj, inv, &mut col[j + 1..]);
     };
     if faer::get_global_parallelism() == Par::Seq {
         out.chunks_mut(n).enumerate().for_each(|(j, c)| fill(j, c));

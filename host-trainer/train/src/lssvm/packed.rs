@@ -11,7 +11,7 @@
 
 use rayon::prelude::*;
 
-use super::kernel::gauss;
+use super::kernel::gauss_rows;
 
 /// Column blocks of [`PackedLower::mul`] (fixed: the sum order must not depend on threads).
 const BLOCKS: usize = 16;
@@ -42,9 +42,7 @@ impl PackedLower {
         cols.into_par_iter().with_max_len(16).for_each(|(j, col)| {
             let zj = &flat[j * dim..(j + 1) * dim];
             col[0] = diag;
-            for (k, v) in col.iter_mut().enumerate().skip(1) {
-                *v = gauss(&flat[(j + k) * dim..(j + k + 1) * dim], zj, inv);
-            }
+            gauss_rows(&flat[(j + 1) * dim..], dim, zj, inv, &mut col[1..]);
         });
         PackedLower { n, data }
     }

@@ -17,7 +17,7 @@ use faer::linalg::matmul::matmul;
 use faer::prelude::*;
 use faer::{Accum, Par, Side};
 
-use super::kernel::gauss;
+use super::kernel::gauss_rows;
 
 /// The preconditioner P = L·Lᵀ + D with D = diag(d) + I/c.
 pub struct LowRank {
@@ -67,8 +67,9 @@ impl LowRank {
                 break;
             }
             let zp = &flat[p * dim..(p + 1) * dim];
-            let mut col =
-                Mat::<f64>::from_fn(n, 1, |i, _| gauss(&flat[i * dim..(i + 1) * dim], zp, inv));
+            let mut k = vec![0.0; n];
+            gauss_rows(&flat, dim, zp, inv, &mut k);
+            let mut col = Mat::<f64>::from_fn(n, 1, |i, _| k[i]);
             if rank > 0 {
                 // col −= L·L[p, :]ᵀ
                 let l = MatRef::from_column_major_slice(&lbuf, n, rank);

@@ -23,7 +23,7 @@
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 
-use super::kernel::gauss;
+use super::kernel::gauss_rows;
 use super::{solve, LssvmError};
 
 /// How the out-of-sample error of a (σ, c) is estimated.
@@ -299,10 +299,13 @@ fn score_row(
                 continue;
             };
             let ko = k_out.get_or_insert_with(|| {
-                fold.iter()
-                    .flat_map(|&i| zt.iter().map(move |s| (s, i)))
-                    .map(|(s, i)| gauss(s, &z[i], inv))
-                    .collect()
+                let flat: Vec<f64> = zt.iter().flatten().copied().collect();
+                let dim = zt.first().map_or(0, Vec::len);
+                let mut ko = vec![0.0; fold.len() * nt];
+                for (r, &i) in fold.iter().enumerate() {
+                    gauss_rows(&flat, dim, &z[i], inv, &mut ko[r * nt..(r + 1) * nt]);
+                }
+                ko
             });
             for (r, &i) in fold.iter().enumerate() {
                 let f: f64 = ko[r * nt..(r + 1) * nt]
@@ -549,6 +552,7 @@ pub fn tune_partially_linear(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lssvm::kernel::gauss;
     use crate::lssvm::{Lssvm, Scaling};
 
     /// An `Lssvm` trained on already standardised rows (identity scaling), σ = 0.7, c = 50.
