@@ -236,78 +236,105 @@ fn score_row(
     sigma: f64,
     cs: &[f64],
 ) -> Vec<f64> {
-    let n = z.len();
-    let mut ss = vec![0.0; cs.len()];
-    let mut failed = vec![false; cs.len()];
-    let mut count = 0usize;
-    let mut held = vec![false; n];
-    let inv = 1.0 / (2.0 * sigma * sigma);
-    for fold in folds {
-        held.iter_mut().for_each(|h| *h = false);
-        fold.iter().for_each(|&i| held[i] = true);
-        let keep: Vec<usize> = (0..n).filter(|&i| !held[i]).collect();
-        let zt: Vec<Vec<f64>> = keep.iter().map(|&i| z[i].clone()).collect();
-        let yt: Vec<f64> = keep.iter().map(|&i| y[i]).collect();
-        let lt: Vec<Vec<f64>> = lin
-            .iter()
-            .map(|col| keep.iter().map(|&i| col[i]).collect())
-            .collect();
-        let nt = zt.len();
-        // Eq. (9) without linear columns from MIXED_MIN_N rows on: `solve::solve`'s paths
-        // (low-rank-preconditioned CG first) on one packed fill per σ, as training solves it.
-        let mut packed: Option<super::packed::PackedLower> = None;
-        let mut kernel: Option<Vec<f64>> = None;
-        // Held-out row i's kernel values against the training rows, in training order.
-        let mut k_out: Option<Vec<f64>> = None;
-        for (k, &c) in cs.iter().enumerate() {
-            if failed[k] {
-                continue;
-            }
-            if solve::validate(&zt, &yt, sigma, c).is_err()
-                || lt.iter().flatten().any(|v| !v.is_finite())
-            {
-                failed[k] = true;
-                continue;
-            }
-            let iterative = lin.is_empty() && nt >= solve::MIXED_MIN_N;
-            let sol = if iterative {
-                let p = packed
-                    .get_or_insert_with(|| super::packed::PackedLower::gaussian(&zt, sigma, c));
-                p.set_diagonal(c);
-                solve::solve_packed(p, &zt, &yt, sigma, c).map(|(solution, _)| {
-                    solve::PartiallyLinear {
-                        solution,
-                        beta: Vec::new(),
-                    }
-                })
-            } else {
-                let mut h = match &kernel {
-                    Some(h) => h.clone(),
-                    None => {
-                        let h = super::mixed::h_lower(&zt, sigma, c);
-                        if nt <= SHARED_FILL_MAX && cs.len() > 1 {
-                            kernel = Some(h.clone());
-                        }
-                        h
-                    }
+    // Folds in parallel; the squared residuals are then added in fold order, so the score
+    // does not depend on how the work was split.
+    let per_fold: Vec<Vec<Option<Vec<f64>>>> = folds
+        .par_iter()
+        .map(|fold| fold_residuals(z, lin, y, fold, sigma, cs))
+        .collect();
+    let count: usize = folds.iter().map(Vec::len).sum();
+    (0..cs.len())
+        .map(|k| {
+            let mut ss = 0.0;
+            for f in &per_fold {
+                let Some(r) = &f[k] else {
+                    return f64::NAN;
                 };
-                solve::set_h_diagonal(&mut h, nt, c);
-                solve::partially_linear_on(&h, &lt, &yt)
-            };
-            let Ok(sol) = sol else {
-                failed[k] = true;
-                continue;
-            };
-            let ko = k_out.get_or_insert_with(|| {
-                let flat: Vec<f64> = zt.iter().flatten().copied().collect();
-                let dim = zt.first().map_or(0, Vec::len);
-                let mut ko = vec![0.0; fold.len() * nt];
-                for (r, &i) in fold.iter().enumerate() {
-                    gauss_rows(&flat, dim, &z[i], inv, &mut ko[r * nt..(r + 1) * nt]);
+                for v in r {
+                    ss += v;
                 }
-                ko
-            });
+            }
+            (ss / count as f64).sqrt()
+        })
+        .collect()
+}
+
+/// The squared held-out residuals of one fold at σ and each of `cs` (`None` where the fold
+/// could not be trained), in the fold's order.
+fn fold_residuals(
+    z: &[Vec<f64>],
+    lin: &[Vec<f64>],
+    y: &[f64],
+    fold: &[usize],
+    sigma: f64,
+    cs: &[f64],
+) -> Vec<Option<Vec<f64>>> {
+    let n = z.len();
+    let inv = 1.0 / (2.0 * sigma * sigma);
+    let mut held = vec![false; n];
+    fold.iter().for_each(|&i| held[i] = true);
+    let keep: Vec<usize> = (0..n).filter(|&i| !held[i]).collect();
+    let zt: Vec<Vec<f64>> = keep.iter().map(|&i| z[i].clone()).collect();
+    let yt: Vec<f64> = keep.iter().map(|&i| y[i]).collect();
+    let lt: Vec<Vec<f64>> = lin
+        .iter()
+        .map(|col| keep.iter().map(|&i| col[i]).collect())
+        .collect();
+    let nt = zt.len();
+    // Eq. (9) without linear columns from MIXED_MIN_N rows on: `solve::solve`'s paths
+    // (low-rank-preconditioned CG first) on one packed fill per σ, as training solves it.
+    let mut packed: Option<super::packed::PackedLower> = None;
+    let mut kernel: Option<Vec<f64>> = None;
+    // Held-out row i's kernel values against the training rows, in training order.
+    let mut k_out: Option<Vec<f64>> = None;
+    let mut out = Vec::with_capacity(cs.len());
+    for &c in cs {
+        if solve::validate(&zt, &yt, sigma, c).is_err()
+            || lt.iter().flatten().any(|v| !v.is_finite())
+        {
+            out.push(None);
+            continue;
+        }
+        let iterative = lin.is_empty() && nt >= solve::MIXED_MIN_N;
+        let sol = if iterative {
+            let p =
+                packed.get_or_insert_with(|| super::packed::PackedLower::gaussian(&zt, sigma, c));
+            p.set_diagonal(c);
+            solve::solve_packed(p, &zt, &yt, sigma, c).map(|(solution, _)| solve::PartiallyLinear {
+                solution,
+                beta: Vec::new(),
+            })
+        } else {
+            let mut h = match &kernel {
+                Some(h) => h.clone(),
+                None => {
+                    let h = super::mixed::h_lower(&zt, sigma, c);
+                    if nt <= SHARED_FILL_MAX && cs.len() > 1 {
+                        kernel = Some(h.clone());
+                    }
+                    h
+                }
+            };
+            solve::set_h_diagonal(&mut h, nt, c);
+            solve::partially_linear_on(&h, &lt, &yt)
+        };
+        let Ok(sol) = sol else {
+            out.push(None);
+            continue;
+        };
+        let ko = k_out.get_or_insert_with(|| {
+            let flat: Vec<f64> = zt.iter().flatten().copied().collect();
+            let dim = zt.first().map_or(0, Vec::len);
+            let mut ko = vec![0.0; fold.len() * nt];
             for (r, &i) in fold.iter().enumerate() {
+                gauss_rows(&flat, dim, &z[i], inv, &mut ko[r * nt..(r + 1) * nt]);
+            }
+            ko
+        });
+        let r: Vec<f64> = fold
+            .iter()
+            .enumerate()
+            .map(|(r, &i)| {
                 let f: f64 = ko[r * nt..(r + 1) * nt]
                     .iter()
                     .zip(&sol.solution.alpha)
@@ -319,21 +346,12 @@ fn score_row(
                         .zip(&sol.beta)
                         .map(|(col, b)| b * col[i])
                         .sum::<f64>();
-                ss[k] += (y[i] - f).powi(2);
-            }
-        }
-        count += fold.len();
+                (y[i] - f).powi(2)
+            })
+            .collect();
+        out.push(Some(r));
     }
-    ss.iter()
-        .zip(&failed)
-        .map(|(s, f)| {
-            if *f {
-                f64::NAN
-            } else {
-                (s / count as f64).sqrt()
-            }
-        })
-        .collect()
+    out
 }
 
 /// The cross-validated RMS, °/h, of one (σ, c) of the (partially linear) model under
