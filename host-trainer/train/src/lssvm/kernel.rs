@@ -73,15 +73,22 @@ pub fn kernel_matrix(z: &[Vec<f64>], sigma: f64) -> Mat<f64> {
     let flat: Vec<f64> = z.iter().flat_map(|r| r.iter().copied()).collect();
     let inv = 1.0 / (2.0 * sigma * sigma);
     let mut k = Mat::<f64>::zeros(n, n);
-    let mut col = vec![0.0; n];
+    // The lower triangle column by column (contiguous in faer's column-major storage), then
+    // the upper one mirrored in square tiles, so that neither pass strides through memory.
     for j in 0..n {
+        let col = k.col_as_slice_mut(j);
+        col[j] = 1.0;
         let zj = &flat[j * dim..(j + 1) * dim];
-        k[(j, j)] = 1.0;
-        let below = &mut col[j + 1..];
-        gauss_rows(&flat[(j + 1) * dim..], dim, zj, inv, below);
-        for (i, &v) in (j + 1..n).zip(below.iter()) {
-            k[(i, j)] = v;
-            k[(j, i)] = v;
+        gauss_rows(&flat[(j + 1) * dim..], dim, zj, inv, &mut col[j + 1..]);
+    }
+    const TILE: usize = 64;
+    for jb in (0..n).step_by(TILE) {
+        for ib in (jb..n).step_by(TILE) {
+            for j in jb..(jb + TILE).min(n) {
+                for i in ib.max(j + 1)..(ib + TILE).min(n) {
+                    k[(j, i)] = k[(i, j)];
+                }
+            }
         }
     }
     k

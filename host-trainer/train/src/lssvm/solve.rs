@@ -562,10 +562,11 @@ mod tests {
 
     #[test]
     fn kernel_matrix_is_symmetric_gaussian() {
-        let (z, _) = data(30);
+        // 150 rows: the mirrored upper triangle spans several 64-row tiles.
+        let (z, _) = data(150);
         let k = kernel_matrix(&z, 0.7);
-        for i in 0..30 {
-            for j in 0..30 {
+        for i in 0..150 {
+            for j in 0..150 {
                 let d2: f64 = (0..2).map(|d| (z[i][d] - z[j][d]).powi(2)).sum();
                 assert_eq!(k[(i, j)], k[(j, i)]);
                 assert!((k[(i, j)] - (-d2 / (2.0 * 0.49)).exp()).abs() < 1e-15);
