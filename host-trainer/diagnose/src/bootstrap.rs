@@ -5,13 +5,14 @@
 use rayon::prelude::*;
 
 use super::candidates::Family;
-use super::linalg::{added_fit, dot};
+use super::linalg::dot;
 use super::noise::{replicate_rng, simulate_block_means, Whitener};
 use super::prepare::Prepared;
 use super::scan::{Point, Scan};
 use super::score::delta_bic;
 use super::variance::VarianceTest;
 use super::Options;
+use rand_chacha::ChaCha8Rng;
 use rlg_eval::noise::NoiseParams;
 
 /// Significance thresholds from a parametric bootstrap of the fitted gyro noise model
@@ -36,7 +37,9 @@ pub(super) fn bootstrap(
     prep: &Prepared,
     opts: &Options,
 ) -> Nulls {
-    let reps: Vec<(Vec<f64>, f64)> = (0..opts.bootstrap.max(1))
+    // The replicates' series first (each with its generator, which the variance test's
+    // replicate continues), then whitened together (batched triangular solves).
+    let sims: Vec<(Vec<f64>, ChaCha8Rng)> = (0..opts.bootstrap.max(1))
         .into_par_iter()
         .map(|k| {
             let mut rng = replicate_rng(opts.seed, k as u64);
@@ -47,17 +50,26 @@ pub(super) fn bootstrap(
                 &mut rng,
                 opts.seed.wrapping_add(k as u64 + 1),
             );
-            let e = s.basis.residual(&ar.whiten(&x));
+            (x, rng)
+        })
+        .collect();
+    let xs: Vec<&[f64]> = sims.iter().map(|(x, _)| x.as_slice()).collect();
+    let whitened = ar.whiten_many(&xs);
+    let reps: Vec<(Vec<f64>, f64)> = sims
+        .into_par_iter()
+        .zip(whitened)
+        .map(|((_, mut rng), w)| {
+            let e = s.basis.residual(&w);
             let rss0 = dot(&e, &e);
             // The best ΔBIC of each family (indexed as `Family::ALL`).
             let mut best = vec![f64::INFINITY; Family::ALL.len()];
             // The variance test's replicate: independent of the block means (it sees the
             // samples about each block's line, they see each block's mean).
             let var_d = var.map(|v| v.replicate(&mut rng));
-            for (cp, p) in s.cperp.iter().zip(points) {
+            for ((cp, fit), p) in s.cperp.iter().zip(&s.fits).zip(points) {
                 let d = match (p.family, var_d) {
                     (Family::Heteroscedastic, Some(d)) => d,
-                    _ => delta_bic(s.n, rss0, added_fit(cp, &e).0, p.family.n_params()),
+                    _ => delta_bic(s.n, rss0, fit.drss(cp, &e), p.family.n_params()),
                 };
                 let b = &mut best[p.family.index()];
                 *b = b.min(d);

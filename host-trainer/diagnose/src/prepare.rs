@@ -487,12 +487,19 @@ pub struct Column {
 /// terms, and the amplitude of any other bias term at its given non-linear parameters.
 /// Sensor terms of the model (a `sensor_lag`) are applied to the drive by the caller.
 pub fn baseline_columns(model: &PhysicsModel, drive: &DriveSeries) -> Vec<Column> {
-    let (t, x, r) = (&drive.t_s, &drive.temp_c, &drive.dtemp_c_per_s);
-    let n = t.len();
-    let mut cols = vec![Column {
-        name: "offset".into(),
-        values: vec![1.0; n],
-    }];
+    baseline_specs(model)
+        .into_iter()
+        .map(|(name, unit)| Column {
+            values: baseline_values(unit.as_ref(), drive),
+            name,
+        })
+        .collect()
+}
+
+/// The linear parameters of [`baseline_columns`], in its order: each column's name and its
+/// unit-amplitude term (`None`: the offset, a column of ones).
+pub fn baseline_specs(model: &PhysicsModel) -> Vec<(String, Option<Term>)> {
+    let mut specs = vec![("offset".to_string(), None)];
     for term in &model.terms {
         match term {
             Term::EarthRate { .. } => {}
@@ -510,10 +517,7 @@ pub fn baseline_columns(model: &PhysicsModel, drive: &DriveSeries) -> Vec<Column
                         scale_c: *scale_c,
                         coeffs_dph: unit,
                     };
-                    cols.push(Column {
-                        name: format!("static_poly.coeffs_dph[{k}]"),
-                        values: contribution(&u, t, x, r),
-                    });
+                    specs.push((format!("static_poly.coeffs_dph[{k}]"), Some(u)));
                 }
             }
             Term::RateTerms { .. } => {
@@ -527,24 +531,29 @@ pub fn baseline_columns(model: &PhysicsModel, drive: &DriveSeries) -> Vec<Column
                         cubic: b,
                         temp_linear: c,
                     };
-                    cols.push(Column {
-                        name: format!("rate_terms.{name}"),
-                        values: contribution(&u, t, x, r),
-                    });
+                    specs.push((format!("rate_terms.{name}"), Some(u)));
                 }
             }
             other if other.role() == Role::Bias => {
                 if let Some(u) = other.unit_amplitude() {
-                    cols.push(Column {
-                        name: format!("{}.amplitude", other.name()),
-                        values: contribution(&u, t, x, r),
-                    });
+                    specs.push((format!("{}.amplitude", other.name()), Some(u)));
                 }
             }
             _ => {}
         }
     }
-    cols
+    specs
+}
+
+/// One column of [`baseline_columns`] on `drive`, from its [`baseline_specs`] entry: one
+/// column at a time, so that a caller combining columns over a long record holds one, not
+/// all of them.
+pub fn baseline_values(unit: Option<&Term>, drive: &DriveSeries) -> Vec<f64> {
+    let (t, x, r) = (&drive.t_s, &drive.temp_c, &drive.dtemp_c_per_s);
+    match unit {
+        None => vec![1.0; t.len()],
+        Some(u) => contribution(u, t, x, r),
+    }
 }
 
 /// The drive the model sees: the recorded one, de-quantised when the model has a

@@ -4,7 +4,7 @@
 use rayon::prelude::*;
 
 use super::candidates::Family;
-use super::linalg::{added_fit, dot, Basis};
+use super::linalg::{added_fit, dot, AddedFit, Basis};
 use super::noise::Whitener;
 use super::prepare::Prepared;
 use super::score::delta_bic;
@@ -22,11 +22,18 @@ pub(super) struct Scan {
     pub(super) drss: Vec<f64>,
     pub(super) coef: Vec<Vec<f64>>,
     pub(super) cperp: Vec<Vec<Vec<f64>>>,
+    /// Each point's fit prepared for the bootstrap's replicates.
+    pub(super) fits: Vec<AddedFit>,
     pub(super) dbic: Vec<f64>,
     pub(super) basis: Basis,
     pub(super) gen_perp: Basis,
     pub(super) gen_k: usize,
     pub(super) gen_dbic: f64,
+}
+
+/// The columns as slices, for [`Whitener::whiten_many`].
+fn refs(cols: &[Vec<f64>]) -> Vec<&[f64]> {
+    cols.iter().map(Vec::as_slice).collect()
 }
 
 pub(super) fn scan(
@@ -36,19 +43,26 @@ pub(super) fn scan(
     points: &[Point],
     generic: &[Vec<f64>],
 ) -> Scan {
-    let base_w: Vec<Vec<f64>> = base_b.iter().map(|c| ar.whiten(c)).collect();
+    let base_w = ar.whiten_many(&refs(base_b));
     let basis = Basis::new(&base_w);
     let yw = basis.residual(&ar.whiten(y_b));
     let n = yw.len();
     let rss0 = dot(&yw, &yw);
-    let res: Vec<(Vec<Vec<f64>>, f64, Vec<f64>)> = points
-        .par_iter()
-        .map(|p| {
-            let cp: Vec<Vec<f64>> = p
-                .cols_b
-                .iter()
-                .map(|c| basis.residual(&ar.whiten(c)))
-                .collect();
+    // Every point's columns whitened together (batched triangular solves), then each point's
+    // fit in parallel.
+    let all: Vec<&[f64]> = points
+        .iter()
+        .flat_map(|p| p.cols_b.iter().map(Vec::as_slice))
+        .collect();
+    let mut whitened = ar.whiten_many(&all).into_iter();
+    let per_point: Vec<Vec<Vec<f64>>> = points
+        .iter()
+        .map(|p| whitened.by_ref().take(p.cols_b.len()).collect())
+        .collect();
+    let res: Vec<(Vec<Vec<f64>>, f64, Vec<f64>)> = per_point
+        .into_par_iter()
+        .map(|w| {
+            let cp: Vec<Vec<f64>> = w.iter().map(|c| basis.residual(c)).collect();
             let (d, a) = added_fit(&cp, &yw);
             (cp, d, a)
         })
@@ -61,20 +75,23 @@ pub(super) fn scan(
         drss.push(d);
         coef.push(a);
     }
-    let gen_w: Vec<Vec<f64>> = generic
+    let gen_w: Vec<Vec<f64>> = ar
+        .whiten_many(&refs(generic))
         .iter()
-        .map(|c| basis.residual(&ar.whiten(c)))
+        .map(|c| basis.residual(c))
         .collect();
     let gen_perp = Basis::new(&gen_w);
     let gen_k = gen_perp.q.len();
     let r = gen_perp.residual(&yw);
     let gen_dbic = delta_bic(n, rss0, rss0 - dot(&r, &r), gen_k);
+    let fits = cperp.par_iter().map(|cp| AddedFit::new(cp)).collect();
     Scan {
         n,
         rss0,
         drss,
         coef,
         cperp,
+        fits,
         dbic,
         basis,
         gen_perp,
