@@ -35,7 +35,10 @@ pub(super) const LOCATE_Z: f64 = 3.5;
 /// diagnosis: each pass after a finding scans the same grid against a larger model, and on
 /// a month at 1 Hz rebuilding the columns cost 18 s per pass.
 #[derive(Debug, Default)]
-pub(crate) struct ColumnCache(std::sync::Mutex<HashMap<(usize, Vec<u64>), Vec<Vec<f64>>>>);
+pub(crate) struct ColumnCache(std::sync::Mutex<HashMap<ColumnKey, Vec<Vec<f64>>>>);
+
+/// A candidate point: its family's index and the bits of its non-linear parameters.
+type ColumnKey = (usize, Vec<u64>);
 
 impl ColumnCache {
     fn get_or_build(
