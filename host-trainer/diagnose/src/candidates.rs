@@ -8,7 +8,7 @@ use super::prepare::{
     baseline_specs, baseline_values, read_quantum, DriveSeries, PhysicsModel, Prepared,
 };
 use super::DiagnoseError;
-use rlg_physics::{contribution, Mechanism, Term};
+use rlg_physics::{contribution, Drive, Mechanism, Term, TermStep};
 
 /// A family of candidate terms: one term of the physics library.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -236,6 +236,38 @@ impl Family {
                 return Ok(c);
             }
         }
+        // The bias families' columns summed into block means as the term is stepped, the
+        // values and order of `columns` then `Prepared::blocks`: a month at 1 Hz would
+        // otherwise allocate and drop two 21 MB series per point.
+        let t_on = prep.full_drive.t_s[0];
+        match self {
+            Family::Backscatter => {
+                let half = std::f64::consts::FRAC_PI_2;
+                return Ok(vec![
+                    stepped_blocks(&self.term(nl, &[1.0, 0.0], t_on), prep, false),
+                    stepped_blocks(
+                        &self.term(nl, &[0.0, 1.0], t_on).with_phase(half),
+                        prep,
+                        false,
+                    ),
+                ]);
+            }
+            Family::GradientLag => {
+                return Ok(vec![stepped_blocks(
+                    &self.term(nl, &[1.0], t_on),
+                    prep,
+                    true,
+                )]);
+            }
+            Family::Hysteresis | Family::Warmup | Family::ModeHop | Family::Aging => {
+                return Ok(vec![stepped_blocks(
+                    &self.term(nl, &[1.0], t_on),
+                    prep,
+                    false,
+                )]);
+            }
+            _ => {}
+        }
         Ok(self
             .columns(nl, prep, model, model_drive, beta)?
             .iter()
@@ -308,6 +340,43 @@ impl Family {
             _ => vec![run(self.term(nl, &[1.0], t_on))],
         })
     }
+}
+
+/// Block means over the fitted samples of `term`'s contribution stepped over the whole
+/// recording from power-on (`contribution`, cut to `prep.range`, then `Prepared::blocks`,
+/// bit for bit), without the per-sample series. `rest_start`: the drive's dT/dt starts at 0
+/// (the gradient lag's start, see `Family::columns`).
+fn stepped_blocks(term: &Term, prep: &Prepared, rest_start: bool) -> Vec<f64> {
+    let d = &prep.full_drive;
+    let n = d.t_s.len().min(d.temp_c.len()).min(d.dtemp_c_per_s.len());
+    let nb = prep.nb();
+    let m = prep.block;
+    if n == 0 || m == 0 {
+        return vec![0.0; nb];
+    }
+    let drive = |i: usize| Drive {
+        t_s: d.t_s[i],
+        temp_c: d.temp_c[i],
+        dtemp_c_per_s: if rest_start && i == 0 {
+            0.0
+        } else {
+            d.dtemp_c_per_s[i]
+        },
+    };
+    let mut st = TermStep::new(term, &drive(0));
+    // `Iterator::sum` of f64 starts from −0.0; so do these sums.
+    let mut sums = vec![-0.0f64; nb];
+    let r = prep.range.clone();
+    for i in 0..n.min(r.end) {
+        let v = st.step(&drive(i), d.temp_c[i]);
+        if i >= r.start {
+            let b = (i - r.start) / m;
+            if b < nb {
+                sums[b] += v;
+            }
+        }
+    }
+    sums.iter().map(|s| s / m as f64).collect()
 }
 
 /// Block means of sin(ωt) and cos(ωt), ω = 2π/`period_s`, over the fitted samples, in closed
@@ -422,6 +491,43 @@ mod tests {
                     .map(|(a, b)| (a - b).abs())
                     .fold(0.0, f64::max);
                 assert!(worst < 1e-12, "period {period}: {worst:e}");
+            }
+        }
+    }
+
+    /// The stepped block means of the bias families are `columns` then `Prepared::blocks`,
+    /// bit for bit, at the first points of each family's grid.
+    #[test]
+    fn stepped_block_columns_are_the_block_means_of_the_samples() {
+        let prep = prepare(&recording(60_000)).unwrap();
+        let model = PhysicsModel::paper();
+        for f in [
+            Family::Backscatter,
+            Family::GradientLag,
+            Family::Hysteresis,
+            Family::Warmup,
+            Family::ModeHop,
+            Family::Aging,
+        ] {
+            let grid = f.grid(&prep);
+            assert!(!grid.is_empty(), "{f:?}: no grid point to compare");
+            for nl in grid.into_iter().take(3) {
+                let fast = f
+                    .block_columns(&nl, &prep, &model, &prep.drive, &[])
+                    .unwrap();
+                let slow: Vec<Vec<f64>> = f
+                    .columns(&nl, &prep, &model, &prep.drive, &[])
+                    .unwrap()
+                    .iter()
+                    .map(|v| prep.blocks(v))
+                    .collect();
+                assert_eq!(fast.len(), slow.len(), "{f:?}");
+                for (a, b) in fast.iter().zip(&slow) {
+                    assert!(
+                        a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()),
+                        "{f:?} at {nl:?}"
+                    );
+                }
             }
         }
     }
