@@ -396,21 +396,7 @@ fn cv_rms(
     y: &[f64],
     fit: impl Fn(&[usize], &[usize]) -> Option<Vec<f64>>,
 ) -> Option<f64> {
-    let mut ss = 0.0;
-    let mut count = 0usize;
-    for f in folds {
-        let mut out = vec![false; n];
-        for &i in f {
-            out[i] = true;
-        }
-        let train: Vec<usize> = (0..n).filter(|&i| !out[i]).collect();
-        let pred = fit(&train, f)?;
-        for (p, &i) in pred.iter().zip(f) {
-            ss += (y[i] - p).powi(2);
-            count += 1;
-        }
-    }
-    (count > 0).then(|| (ss / count as f64).sqrt())
+    cv_rms_many(folds, n, y, 1, |tr, te| vec![fit(tr, te)])[0]
 }
 
 /// [`cv_rms`] of `k` models fitted together per fold (`fit` gives each model's held-out
