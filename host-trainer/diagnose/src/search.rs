@@ -264,6 +264,8 @@ pub(crate) fn run(
     let cycles = cycle_folds(prep);
     let record_s = prep.nb() as f64 * block_s;
     let mut untestable = Vec::new();
+    // The model's own leave-one-cycle-out RSS, the same for every family: computed once.
+    let mut base_cycle_rss: Option<f64> = None;
     // Whether a significant family counts towards `unexplained_structure`.
     let mut sig_counted = false;
     // The smallest α at which the verdict would not be `consistent` (see `Evidence`).
@@ -303,7 +305,10 @@ pub(crate) fn run(
                     // cycles it must predict each held-out one better than the model alone.
                     // Slow noise does not recur and fails here whatever its spectrum.
                     if let (true, Some(folds)) = (f.is_thermal(), cycles.as_ref()) {
-                        let base_c = cycle_rss(prep, model, None, folds)?;
+                        let base_c = match base_cycle_rss {
+                            Some(v) => v,
+                            None => *base_cycle_rss.insert(cycle_rss(prep, model, None, folds)?),
+                        };
                         cycle_gain = Some(base_c - cycle_rss(prep, model, Some(&term), folds)?);
                     }
                     (term, unc, ho)
