@@ -474,7 +474,7 @@ mod tests {
     /// per-sample columns, for periods from four blocks to the record's length.
     #[test]
     fn periodic_block_columns_are_the_block_means_of_the_samples() {
-        let prep = prepare(&recording(60_000)).unwrap();
+        let prep = prepare(recording(60_000)).unwrap();
         let model = PhysicsModel::paper();
         for period in [400.0, 777.7, 5_000.0, 59_000.0] {
             let fast = periodic_block_columns(period, &prep).unwrap();
@@ -499,7 +499,7 @@ mod tests {
     /// bit for bit, at the first points of each family's grid.
     #[test]
     fn stepped_block_columns_are_the_block_means_of_the_samples() {
-        let prep = prepare(&recording(60_000)).unwrap();
+        let prep = prepare(recording(60_000)).unwrap();
         let model = PhysicsModel::paper();
         for f in [
             Family::Backscatter,

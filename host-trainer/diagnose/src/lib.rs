@@ -270,9 +270,9 @@ pub struct CandidateScore {
     pub cycle_gain: Option<f64>,
 }
 
-/// Diagnoses `rec` against `model`.
-pub fn diagnose(
-    rec: &rlg_io::recording::Recording,
+/// Diagnoses `rec` against `model`; a recording given by value is not copied.
+pub fn diagnose<'a>(
+    rec: impl Into<std::borrow::Cow<'a, rlg_io::recording::Recording>>,
     model: &PhysicsModel,
     opts: &Options,
 ) -> Result<Diagnosis, DiagnoseError> {
@@ -326,10 +326,7 @@ pub fn diagnose(
 /// Residual of the 100 s means after a least-squares fit of `model`'s linear parameters.
 fn block_residual(prep: &Prepared, model: &PhysicsModel) -> Result<Vec<f64>, DiagnoseError> {
     let drive = prepare::model_drive(model, prep)?;
-    let cols: Vec<Vec<f64>> = prepare::baseline_columns(model, &drive)
-        .iter()
-        .map(|c| prep.blocks(&c.values))
-        .collect();
+    let cols = prep.baseline_blocks(model, &drive);
     Ok(linalg::Basis::new(&cols).residual(&prep.y_b))
 }
 

@@ -67,13 +67,18 @@ impl Basis {
     /// y minus its projection on the span.
     pub fn residual(&self, y: &[f64]) -> Vec<f64> {
         let mut v = y.to_vec();
+        self.residual_in_place(&mut v);
+        v
+    }
+
+    /// [`Basis::residual`] over `v` itself (no second copy of a large grid's columns).
+    pub fn residual_in_place(&self, v: &mut [f64]) {
         for _pass in 0..2 {
             for qi in &self.q {
-                let a = dot(qi, &v);
+                let a = dot(qi, v);
                 v.iter_mut().zip(qi).for_each(|(x, y)| *x -= a * y);
             }
         }
-        v
     }
 
     /// ln det of the Gram matrix of the kept columns, Σ 2·ln r_ii (R of their QR).

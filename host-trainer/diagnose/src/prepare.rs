@@ -3,6 +3,7 @@
 //! baseline model's columns (each linear parameter's unit contribution, computed by the
 //! shared physics library).
 
+use std::borrow::Cow;
 use std::path::Path;
 
 use serde::de::IgnoredAny;
@@ -358,28 +359,56 @@ impl Prepared {
     /// The drive un-lagged by `tau_s` (see [`DriveSeries::unlagged`]), computed over the
     /// whole recording so the estimator's warm-up falls outside the fitted samples.
     pub fn drive_unlagged(&self, tau_s: f64) -> Result<DriveSeries, DiagnoseError> {
-        Ok(self.fitted_part(&self.full_drive.unlagged(tau_s, self.dt_s)?))
+        Ok(self.fitted_part(self.full_drive.unlagged(tau_s, self.dt_s)?))
     }
 
-    /// The fitted samples of a drive over the whole recording.
-    pub fn fitted_part(&self, full: &DriveSeries) -> DriveSeries {
+    /// The fitted samples of a drive over the whole recording, cut in place: a month's
+    /// drive is 60 MB, and a copy would double it while both live.
+    pub fn fitted_part(&self, mut full: DriveSeries) -> DriveSeries {
         let r = self.range.clone();
-        DriveSeries {
-            t_s: full.t_s[r.clone()].to_vec(),
-            temp_c: full.temp_c[r.clone()].to_vec(),
-            dtemp_c_per_s: full.dtemp_c_per_s[r].to_vec(),
+        for v in [&mut full.t_s, &mut full.temp_c, &mut full.dtemp_c_per_s] {
+            v.truncate(r.end);
+            v.drain(..r.start);
         }
+        full
     }
 
     /// The drive de-quantised at `step_c` (see [`DriveSeries::dequantised`]), computed over
     /// the whole recording.
     pub fn drive_dequantised(&self, step_c: f64) -> Result<DriveSeries, DiagnoseError> {
-        Ok(self.fitted_part(&self.full_drive.dequantised(step_c, self.dt_s)?))
+        Ok(self.fitted_part(self.full_drive.dequantised(step_c, self.dt_s)?))
     }
 
     /// Block means of a per-sample series.
     pub fn blocks(&self, x: &[f64]) -> Vec<f64> {
         block_means(x, self.block)
+    }
+
+    /// Block means of [`baseline_columns`] on `drive`, one column at a time: a month's
+    /// record then holds one 20 MB per-sample column, not one per linear parameter.
+    pub fn baseline_blocks(&self, model: &PhysicsModel, drive: &DriveSeries) -> Vec<Vec<f64>> {
+        baseline_specs(model)
+            .iter()
+            .map(|(_, unit)| self.blocks(&baseline_values(unit.as_ref(), drive)))
+            .collect()
+    }
+
+    /// The recorded rate less `beta` times [`baseline_columns`] on `drive`, per sample, the
+    /// columns computed one at a time (the bits of the sum over all of them at once).
+    pub fn baseline_residual(
+        &self,
+        model: &PhysicsModel,
+        drive: &DriveSeries,
+        beta: &[f64],
+    ) -> Vec<f64> {
+        let mut fit = vec![0.0; self.rate_dph.len()];
+        for ((_, unit), b) in baseline_specs(model).iter().zip(beta) {
+            if *b != 0.0 {
+                let c = baseline_values(unit.as_ref(), drive);
+                fit.iter_mut().zip(&c).for_each(|(o, v)| *o += b * v);
+            }
+        }
+        self.rate_dph.iter().zip(&fit).map(|(a, f)| a - f).collect()
     }
 }
 
@@ -407,8 +436,10 @@ pub fn block_samples(n: usize, dt_s: f64) -> usize {
 }
 
 /// Prepares a recording: computes dT/dt by a centred difference, drops the first 30 s and any
-/// partial last block.
-pub fn prepare(rec: &Recording) -> Result<Prepared, DiagnoseError> {
+/// partial last block. A recording given by value lends its series to the result instead of
+/// being copied (a month at 1 Hz: 80 MB less while the diagnosis runs).
+pub fn prepare<'a>(rec: impl Into<Cow<'a, Recording>>) -> Result<Prepared, DiagnoseError> {
+    let rec = rec.into();
     let n = rec.len();
     if n < 3 {
         return Err(DiagnoseError::TooShort {
@@ -453,10 +484,15 @@ pub fn prepare(rec: &Recording) -> Result<Prepared, DiagnoseError> {
         temp_c: rec.temp_c[r.clone()].to_vec(),
         dtemp_c_per_s: rate_all[r.clone()].to_vec(),
     };
-    let rate_dph = rec.rate_dph[r.clone()].to_vec();
+    let (t_s, temp_c, mut rate_dph) = match rec {
+        Cow::Owned(x) => (x.time_s, x.temp_c, x.rate_dph),
+        Cow::Borrowed(x) => (x.time_s.clone(), x.temp_c.clone(), x.rate_dph.clone()),
+    };
+    rate_dph.truncate(r.end);
+    rate_dph.drain(..r.start);
     let full_drive = DriveSeries {
-        t_s: rec.time_s.clone(),
-        temp_c: rec.temp_c.clone(),
+        t_s,
+        temp_c,
         dtemp_c_per_s: rate_all,
     };
     Ok(Prepared {
@@ -560,7 +596,10 @@ pub fn baseline_values(unit: Option<&Term>, drive: &DriveSeries) -> Vec<f64> {
 /// `temp_quantization`, then un-lagged when it has a `sensor_lag` (the physics library applies
 /// the lag first and the rounding to the lagged reading, so the diagnosis undoes them in the
 /// reverse order).
-pub fn model_drive(model: &PhysicsModel, prep: &Prepared) -> Result<DriveSeries, DiagnoseError> {
+pub fn model_drive<'a>(
+    model: &PhysicsModel,
+    prep: &'a Prepared,
+) -> Result<Cow<'a, DriveSeries>, DiagnoseError> {
     let tau = model.terms.iter().find_map(|t| match t {
         Term::SensorLag { tau_s } if *tau_s > 0.0 => Some(*tau_s),
         _ => None,
@@ -569,15 +608,18 @@ pub fn model_drive(model: &PhysicsModel, prep: &Prepared) -> Result<DriveSeries,
         Term::TempQuantization { step_c } if *step_c > 0.0 => Some(*step_c),
         _ => None,
     });
-    let mut full = match step {
-        Some(q) => prep.full_drive.dequantised(q, prep.dt_s)?,
-        None if tau.is_none() => return Ok(prep.drive.clone()),
-        None => prep.full_drive.clone(),
+    let dequantised = step
+        .map(|q| prep.full_drive.dequantised(q, prep.dt_s))
+        .transpose()?;
+    let full = match (tau, dequantised) {
+        (None, None) => return Ok(Cow::Borrowed(&prep.drive)),
+        (None, Some(d)) => d,
+        (Some(tau), d) => d
+            .as_ref()
+            .unwrap_or(&prep.full_drive)
+            .unlagged(tau, prep.dt_s)?,
     };
-    if let Some(tau) = tau {
-        full = full.unlagged(tau, prep.dt_s)?;
-    }
-    Ok(prep.fitted_part(&full))
+    Ok(Cow::Owned(prep.fitted_part(full)))
 }
 
 #[cfg(test)]

@@ -7,7 +7,7 @@ use rayon::prelude::*;
 use super::candidates::Family;
 use super::linalg::{added_fit, dot, Basis};
 use super::noise::Whitener;
-use super::prepare::{baseline_columns, DriveSeries, PhysicsModel, Prepared};
+use super::prepare::{DriveSeries, PhysicsModel, Prepared};
 use super::scan::{Point, Scan};
 use super::DiagnoseError;
 use rlg_physics::Term;
@@ -99,9 +99,10 @@ pub(super) fn refine(
             .par_iter()
             .map(|&tau| {
                 let d = prep.drive_unlagged(tau)?;
-                let cols: Vec<Vec<f64>> = baseline_columns(model, &d)
+                let cols: Vec<Vec<f64>> = prep
+                    .baseline_blocks(model, &d)
                     .iter()
-                    .map(|c| ar.whiten(&prep.blocks(&c.values)))
+                    .map(|c| ar.whiten(c))
                     .collect();
                 let r = Basis::new(&cols).residual(&ar.whiten(&prep.y_b));
                 Ok(dot(&r, &r))

@@ -61,8 +61,9 @@ pub(super) fn scan(
         .collect();
     let res: Vec<(Vec<Vec<f64>>, f64, Vec<f64>)> = per_point
         .into_par_iter()
-        .map(|w| {
-            let cp: Vec<Vec<f64>> = w.iter().map(|c| basis.residual(c)).collect();
+        .map(|mut cp| {
+            // Residualised in place: the grid's whitened columns are not held twice.
+            cp.iter_mut().for_each(|c| basis.residual_in_place(c));
             let (d, a) = added_fit(&cp, &yw);
             (cp, d, a)
         })

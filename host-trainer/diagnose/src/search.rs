@@ -14,11 +14,11 @@ use super::noise::{
     calibrate_bias_instability, fit_gyro_noise, replicate_rng, simulate_block_means, ArModel,
     GlsWhitener, Whitener, GLS_MAX_BLOCKS,
 };
-use super::prepare::{baseline_columns, model_drive, PhysicsModel, Prepared};
+use super::prepare::{model_drive, PhysicsModel, Prepared};
 use super::refine::{argmin, refine};
 use super::reml::{allan_check, block_mean_cov, reml_noise, AllanCheck};
 use super::scan::{generic_columns, scan, Point};
-use super::score::{cycle_folds, cycle_rss, heldout_metrics, model_columns, nonlinear_of, HeldOut};
+use super::score::{cycle_folds, cycle_rss, heldout_metrics, nonlinear_of, HeldOut, ModelColumns};
 use super::variance::{output_quantum, VarianceTest};
 use super::{
     CandidateScore, DiagnoseError, Diagnosis, Evidence, Figures, Finding, Options, Verdict,
@@ -75,11 +75,7 @@ pub(crate) fn run(
 ) -> Result<Diagnosis, DiagnoseError> {
     let nb = prep.nb();
     let mdrive = model_drive(model, prep)?;
-    let base1: Vec<Vec<f64>> = baseline_columns(model, &mdrive)
-        .into_iter()
-        .map(|c| c.values)
-        .collect();
-    let base_b: Vec<Vec<f64>> = base1.iter().map(|c| prep.blocks(c)).collect();
+    let base_b = prep.baseline_blocks(model, &mdrive);
     let ols = Basis::new(&base_b);
     let beta_b = ols.coefficients(&prep.y_b);
     let resid_b = ols.residual(&prep.y_b);
@@ -163,14 +159,6 @@ pub(crate) fn run(
     // variance of the 1 Hz residual, bias instability by REML on the 100 s means. Under an
     // effect the null fit is slightly conservative (a D = 6 effect spread over 500 blocks adds
     // about 7 % to their variance).
-    let resid1 = {
-        let fit0 = combine(&base1, &beta_b, prep.rate_dph.len());
-        prep.rate_dph
-            .iter()
-            .zip(&fit0)
-            .map(|(a, f)| a - f)
-            .collect::<Vec<f64>>()
-    };
     // The noise is fitted where the tests use it, on the 100 s means, by REML (`reml.rs`):
     // white level and bias instability first; when that model fails the residual's own
     // Allan check (slow wander the bank does not describe), rate random walk is added. The
@@ -197,6 +185,7 @@ pub(crate) fn run(
             None => (g, c),
         },
         None => {
+            let resid1 = prep.baseline_residual(model, &mdrive, &beta_b);
             let allan = fit_gyro_noise(&resid1, prep.dt_s);
             let g = calibrate_bias_instability(
                 &allan,
@@ -383,13 +372,13 @@ pub(crate) fn run(
         let effect: Vec<f64> = match (f, var.as_ref()) {
             (Family::Heteroscedastic, Some(v)) => v.effect(&term),
             _ => {
-                let cols1 = model_columns(
+                let cols_b = ModelColumns::new(
                     prep,
                     model,
                     &mdrive,
                     nonlinear_of(&term).as_ref().map(|(f, nl)| (*f, &nl[..])),
-                )?;
-                let cols_b: Vec<Vec<f64>> = cols1.iter().map(|c| prep.blocks(c)).collect();
+                )?
+                .blocks()?;
                 let full = Basis::new(&cols_b);
                 let fit1 = combine(&cols_b, &full.coefficients(&prep.y_b), nb);
                 let fit0 = combine(&base_b, &beta_b, nb);

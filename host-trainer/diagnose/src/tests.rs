@@ -288,3 +288,99 @@ fn json_contract_field_names() {
         assert!(!f["where"][0][k].is_null(), "where.{k}");
     }
 }
+
+/// The held-out check makes its per-sample columns one at a time (twice); its figures are
+/// those of the check that holds every column at once, bit for bit, for the model alone, an
+/// added candidate and a candidate that changes the drive.
+#[test]
+fn streamed_heldout_check_equals_the_one_holding_every_column() {
+    use score::{CHUNK_BLOCKS, FOLDS};
+    let sim = simulate(&scenario(vec![], 1.0), 31).expect("simulates");
+    let prep = prepare::prepare(&sim.recording).expect("prepares");
+    let model = PhysicsModel::paper();
+    let mdrive = prepare::model_drive(&model, &prep).expect("drive");
+    // The check as written before, on every per-sample column at once.
+    let reference = |extra: Option<(Family, &[f64])>| -> (f64, f64, f64) {
+        let drive = match extra {
+            Some((Family::SensorLag, nl)) => prep.drive_unlagged(nl[0]).expect("unlags"),
+            _ => mdrive.clone().into_owned(),
+        };
+        let mut cols1: Vec<Vec<f64>> = prepare::baseline_columns(&model, &drive)
+            .into_iter()
+            .map(|c| c.values)
+            .collect();
+        if let Some((f, nl)) = extra.filter(|(f, _)| *f != Family::SensorLag) {
+            cols1.extend(f.columns(nl, &prep, &model, &mdrive, &[]).expect("columns"));
+        }
+        let cols_b: Vec<Vec<f64>> = cols1.iter().map(|c| prep.blocks(c)).collect();
+        let nb = prep.nb();
+        let mut resid1 = vec![0.0; prep.rate_dph.len()];
+        let mut rss = 0.0;
+        for f in 0..FOLDS {
+            let train: Vec<usize> = (0..nb)
+                .filter(|&b| (b / CHUNK_BLOCKS) % FOLDS != f)
+                .collect();
+            let tc: Vec<Vec<f64>> = cols_b
+                .iter()
+                .map(|c| train.iter().map(|&b| c[b]).collect())
+                .collect();
+            let ty: Vec<f64> = train.iter().map(|&b| prep.y_b[b]).collect();
+            let beta = linalg::Basis::new(&tc).coefficients(&ty);
+            for b in (0..nb).filter(|&b| (b / CHUNK_BLOCKS) % FOLDS == f) {
+                let pred: f64 = cols_b.iter().zip(&beta).map(|(c, w)| c[b] * w).sum();
+                rss += (prep.y_b[b] - pred).powi(2);
+                for i in b * prep.block..(b + 1) * prep.block {
+                    let p: f64 = cols1.iter().zip(&beta).map(|(c, w)| c[i] * w).sum();
+                    resid1[i] = prep.rate_dph[i] - p;
+                }
+            }
+        }
+        let b100 = rlg_eval::metrics::bias_stability_dph(&resid1, prep.block).expect("b100");
+        (rlg_eval::metrics::rms(&resid1).expect("rms"), b100, rss)
+    };
+    let cases: [(Option<Term>, Option<(Family, Vec<f64>)>); 3] = [
+        (None, None),
+        (
+            Some(Term::Periodic {
+                amplitude_dph: 0.0,
+                period_s: 7_000.0,
+                phase_rad: 0.0,
+                windows_s: Vec::new(),
+            }),
+            Some((Family::Periodic, vec![7_000.0])),
+        ),
+        (
+            Some(Term::SensorLag { tau_s: 250.0 }),
+            Some((Family::SensorLag, vec![250.0])),
+        ),
+    ];
+    for (term, extra) in cases {
+        let got = heldout_metrics(&prep, &model, term.as_ref()).expect("held-out");
+        let want = reference(extra.as_ref().map(|(f, nl)| (*f, &nl[..])));
+        assert_eq!(
+            (got.figures.rms_dph, got.figures.b100_dph, got.rss_b),
+            want,
+            "{term:?}"
+        );
+    }
+}
+
+/// A recording handed over by value is prepared to the same series as one lent.
+#[test]
+fn prepared_from_an_owned_recording_equals_one_from_a_lent_one() {
+    let sim = simulate(&scenario(vec![], 1.0), 32).expect("simulates");
+    let lent = prepare::prepare(&sim.recording).expect("prepares");
+    let owned = prepare::prepare(sim.recording.clone()).expect("prepares");
+    assert_eq!(lent.range, owned.range);
+    assert_eq!(lent.rate_dph, owned.rate_dph);
+    assert_eq!(lent.y_b, owned.y_b);
+    for (a, b) in [
+        (&lent.drive, &owned.drive),
+        (&lent.full_drive, &owned.full_drive),
+    ] {
+        assert_eq!(a.t_s, b.t_s);
+        assert_eq!(a.temp_c, b.temp_c);
+        assert_eq!(a.dtemp_c_per_s, b.dtemp_c_per_s);
+    }
+    assert_eq!(owned.full_drive.t_s, sim.recording.time_s);
+}

@@ -50,6 +50,20 @@ pub enum RecordingError {
     },
 }
 
+/// A recording lent (`&rec`) or handed over (`rec`) to a consumer that takes
+/// `impl Into<Cow<Recording>>`: handed over, its series are reused instead of copied.
+impl<'a> From<&'a Recording> for std::borrow::Cow<'a, Recording> {
+    fn from(r: &'a Recording) -> Self {
+        std::borrow::Cow::Borrowed(r)
+    }
+}
+
+impl From<Recording> for std::borrow::Cow<'_, Recording> {
+    fn from(r: Recording) -> Self {
+        std::borrow::Cow::Owned(r)
+    }
+}
+
 impl Recording {
     /// Number of samples.
     pub fn len(&self) -> usize {

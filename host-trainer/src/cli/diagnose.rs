@@ -95,7 +95,7 @@ pub fn run(args: &DiagnoseArgs) -> anyhow::Result<()> {
         alpha: args.alpha,
         ..Options::default()
     };
-    let d = diagnose(&rec, &model, &opts)?;
+    let d = diagnose(rec, &model, &opts)?;
     println!(
         "verdict: {}",
         serde_json::to_value(d.verdict)?.as_str().unwrap_or("?")

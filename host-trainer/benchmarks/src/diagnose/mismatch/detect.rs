@@ -4,7 +4,7 @@
 
 use rlg_diagnose::linalg::{dot, Basis};
 use rlg_diagnose::noise::GlsWhitener;
-use rlg_diagnose::prepare::{baseline_columns, estimate_rate, model_drive, PhysicsModel, Prepared};
+use rlg_diagnose::prepare::{estimate_rate, model_drive, PhysicsModel, Prepared};
 use rlg_diagnose::DiagnoseError;
 use rlg_physics::{contribution, Term};
 
@@ -35,10 +35,8 @@ impl Metric {
         else {
             return Ok(None);
         };
-        let cols: Vec<Vec<f64>> = baseline_columns(model, &model_drive(model, prep)?)
-            .iter()
-            .map(|c| prep.blocks(&c.values))
-            .collect();
+        let drive = model_drive(model, prep)?;
+        let cols = prep.baseline_blocks(model, &drive);
         let wcols: Vec<Vec<f64>> = cols.iter().map(|c| white.whiten(c)).collect();
         Ok(Some(Self {
             white,

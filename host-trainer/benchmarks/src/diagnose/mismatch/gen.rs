@@ -266,7 +266,7 @@ pub fn build_case(
             let stats = (0.0, 0.0, 0.0);
             return Ok(assemble(id, kind, c, unit, 0.0, 0.0, stats, tr, read));
         }
-        let prep = prepare(&recording(id, &tr, vec![0.0; tr.t_s.len()], read.clone()))?;
+        let prep = prepare(recording(id, &tr, vec![0.0; tr.t_s.len()], read.clone()))?;
         let Some(metric) = Metric::new(&prep, model, &c.noise)? else {
             continue;
         };
