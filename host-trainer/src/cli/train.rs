@@ -60,16 +60,21 @@ pub struct TrainArgs {
 pub fn run(a: &TrainArgs, command_line: &str) -> anyhow::Result<()> {
     super::check_output_file(&a.out, "--out")?;
     let mut rec = None;
-    let (path, data) = match (&a.table1, &a.recording) {
+    let sel = RecordingSelection {
+        from_s: a.from_s,
+        to_s: a.to_s,
+        block: a.block,
+        rate_tau_s: a.rate_tau_s,
+    };
+    let (path, mut data) = match (&a.table1, &a.recording) {
         (Some(p), _) => (p, dataset::table1_from_csv(p)?),
         (None, Some(p)) => {
-            let r = rec.insert(super::read_recording(p, &a.units)?);
-            let sel = RecordingSelection {
-                from_s: a.from_s,
-                to_s: a.to_s,
-                block: a.block,
-                rate_tau_s: a.rate_tau_s,
-            };
+            let mut read = super::read_recording(p, &a.units)?;
+            // Training reads time, rate and temperature only: the chamber's column and any
+            // other are 80 MB each on 10⁷ samples.
+            read.chamber_c = None;
+            read.extra = Vec::new();
+            let r = rec.insert(read);
             (p, dataset::from_recording(r, &sel)?)
         }
         (None, None) => anyhow::bail!("give --table FILE or --recording FILE"),
@@ -101,14 +106,22 @@ pub fn run(a: &TrainArgs, command_line: &str) -> anyhow::Result<()> {
                     &Grid::default(),
                     &pb,
                 )?,
-                Some(r) => rlg_calibrate::tune_recording(
-                    r,
-                    a.from_s,
-                    a.to_s,
-                    a.rate_tau_s,
-                    &Grid::default(),
-                    &pb,
-                )?,
+                Some(r) => {
+                    // The tuning works on the recording: the training set is rebuilt after
+                    // it rather than held through it (560 MB on 10⁷ samples at --block 1).
+                    data.x = Vec::new();
+                    data.y_dph = Vec::new();
+                    let tuned = rlg_calibrate::tune_recording(
+                        r,
+                        a.from_s,
+                        a.to_s,
+                        a.rate_tau_s,
+                        &Grid::default(),
+                        &pb,
+                    )?;
+                    data = dataset::from_recording(r, &sel)?;
+                    tuned
+                }
             };
             pb.finish_and_clear();
             println!(
@@ -118,6 +131,9 @@ pub fn run(a: &TrainArgs, command_line: &str) -> anyhow::Result<()> {
             (tuned.sigma, tuned.c)
         }
     };
+    // The recording was needed for the stream check and the tuning only: on 10⁷ samples it
+    // is 320 MB the training does not use.
+    drop(rec);
     let m = match a.budget {
         None => ModelFile::train(
             &data.features,

@@ -144,9 +144,11 @@ pub fn from_recording_with(
             rec.rate_dph.len()
         )));
     }
-    let mut steps: Vec<f64> = rec.time_s.windows(2).map(|w| w[1] - w[0]).collect();
-    steps.sort_by(f64::total_cmp);
-    let dt_s = steps[steps.len() / 2];
+    let dt_s = {
+        let mut steps: Vec<f64> = rec.time_s.windows(2).map(|w| w[1] - w[0]).collect();
+        steps.sort_by(f64::total_cmp);
+        steps[steps.len() / 2]
+    };
     let series = features::compute(features, &rec.temp_c, &rec.time_s, sel.rate_tau_s, dt_s)?;
     let (lo, hi) = (
         sel.from_s.unwrap_or(f64::NEG_INFINITY),

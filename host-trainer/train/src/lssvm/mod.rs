@@ -152,6 +152,28 @@ pub(crate) fn standardised(
     Ok((scaling, z))
 }
 
+/// [`standardised`] into one row-major block: a row of its own costs 56 bytes for two
+/// features against 16 in the block (10⁷ samples: 560 MB against 160 MB).
+pub(crate) fn standardised_rows(
+    features: &[String],
+    x: &[Vec<f64>],
+    y_dph: &[f64],
+) -> Result<(Scaling, fixed_size::Rows), LssvmError> {
+    if x.len() != y_dph.len() {
+        return Err(LssvmError::Length {
+            inputs: x.len(),
+            targets: y_dph.len(),
+        });
+    }
+    let scaling = Scaling::fit(features, x)?;
+    let dim = x.first().map_or(0, Vec::len);
+    let mut data = Vec::with_capacity(x.len() * dim);
+    for r in x {
+        data.extend(scaling.apply(r));
+    }
+    Ok((scaling, fixed_size::Rows { data, dim }))
+}
+
 /// Inputs per support vector up to which [`Lssvm::predict_standardised`] batches its kernel
 /// values (the models here have 2 to 4).
 const PREDICT_MAX_DIM: usize = 8;

@@ -80,11 +80,9 @@ pub fn train_reduced(
     budget: usize,
     method: Reduction,
 ) -> Result<Lssvm, LssvmError> {
-    let (scaling, z) = super::standardised(features, x, y_dph)?;
-    let (support, alpha_dph, bias_dph) = match method {
+    let (scaling, support, alpha_dph, bias_dph) = match method {
         Reduction::FixedSize { trials, seed } => {
-            let rows = Rows::from_rows(&z);
-            drop(z);
+            let (scaling, rows) = super::standardised_rows(features, x, y_dph)?;
             let opts = FixedSizeOptions {
                 budget,
                 trials,
@@ -92,25 +90,27 @@ pub fn train_reduced(
             };
             let s = solve_fixed_size(&rows, y_dph, sigma, c, &opts)?;
             let support = s.active.iter().map(|&i| rows.row(i).to_vec()).collect();
-            (support, s.alpha, s.bias)
+            (scaling, support, s.alpha, s.bias)
         }
         Reduction::Prune {
             fraction,
             refit_all: false,
         } => {
+            let (scaling, z) = super::standardised(features, x, y_dph)?;
             let p = prune(&z, y_dph, sigma, c, budget, fraction)?;
             let support = p.kept.iter().map(|&i| z[i].clone()).collect();
-            (support, p.solution.alpha, p.solution.bias)
+            (scaling, support, p.solution.alpha, p.solution.bias)
         }
         Reduction::Prune {
             fraction,
             refit_all: true,
         } => {
+            let (scaling, z) = super::standardised(features, x, y_dph)?;
             let p = prune(&z, y_dph, sigma, c, budget, fraction)?;
             let rows = Rows::from_rows(&z);
             let s = solve_on_active(&rows, y_dph, sigma, c, p.kept)?;
             let support = s.active.iter().map(|&i| z[i].clone()).collect();
-            (support, s.alpha, s.bias)
+            (scaling, support, s.alpha, s.bias)
         }
     };
     Ok(Lssvm {
@@ -150,9 +150,7 @@ impl FixedSizePath {
         sigma: f64,
         opts: &FixedSizeOptions,
     ) -> Result<FixedSizePath, LssvmError> {
-        let (scaling, z) = super::standardised(features, x, y_dph)?;
-        let rows = Rows::from_rows(&z);
-        drop(z);
+        let (scaling, rows) = super::standardised_rows(features, x, y_dph)?;
         // The checks of `solve_fixed_size`, with c = 1 standing for any valid c.
         fixed_size::validate(&rows, y_dph, sigma, 1.0, opts)?;
         let active = select_active_set(&rows, opts.budget, sigma, opts.trials, opts.seed);
