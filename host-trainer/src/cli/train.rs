@@ -6,7 +6,8 @@ use anyhow::Context;
 use clap::Args;
 
 use rlg_io::progress::progress;
-use rlg_train::dataset::{self, RecordingSelection};
+use rlg_train::dataset::{self, Dataset, RecordingSelection};
+use rlg_train::features::FeatureRows;
 use rlg_train::lssvm::sparse::{train_reduced, Reduction};
 use rlg_train::lssvm::tune::{tune, Grid, Validation};
 use rlg_train::model::{ModelFile, Provenance};
@@ -56,6 +57,26 @@ pub struct TrainArgs {
     pub out: PathBuf,
 }
 
+/// Table 1's rows in one block, as a recording's are.
+fn flat(d: Dataset) -> Dataset<FeatureRows> {
+    let mut x = FeatureRows::with_capacity(d.features.len(), d.x.len());
+    for r in &d.x {
+        x.push_row(r.iter().copied());
+    }
+    Dataset {
+        x,
+        features: d.features,
+        y_dph: d.y_dph,
+        dt_s: d.dt_s,
+    }
+}
+
+/// Rows as vectors, for the solvers that take them (the exact solve, Table 1's tuning): a
+/// training set held this way costs 56 bytes a row, so the large ones stay in one block.
+fn vecs(x: &FeatureRows) -> Vec<Vec<f64>> {
+    (0..x.len()).map(|k| x[k].to_vec()).collect()
+}
+
 /// Runs `rlg train`.
 pub fn run(a: &TrainArgs, command_line: &str) -> anyhow::Result<()> {
     super::check_output_file(&a.out, "--out")?;
@@ -67,7 +88,7 @@ pub fn run(a: &TrainArgs, command_line: &str) -> anyhow::Result<()> {
         rate_tau_s: a.rate_tau_s,
     };
     let (path, mut data) = match (&a.table1, &a.recording) {
-        (Some(p), _) => (p, dataset::table1_from_csv(p)?),
+        (Some(p), _) => (p, flat(dataset::table1_from_csv(p)?)),
         (None, Some(p)) => {
             let mut read = super::read_recording(p, &a.units)?;
             // Training reads time, rate and temperature only: the chamber's column and any
@@ -75,7 +96,7 @@ pub fn run(a: &TrainArgs, command_line: &str) -> anyhow::Result<()> {
             read.chamber_c = None;
             read.extra = Vec::new();
             let r = rec.insert(read);
-            (p, dataset::from_recording(r, &sel)?)
+            (p, dataset::from_recording_rows(r, &sel)?)
         }
         (None, None) => anyhow::bail!("give --table FILE or --recording FILE"),
     };
@@ -100,7 +121,7 @@ pub fn run(a: &TrainArgs, command_line: &str) -> anyhow::Result<()> {
                 // Table 1's points are independent: closed-form leave-one-out.
                 None => tune(
                     &data.features,
-                    &data.x,
+                    &vecs(&data.x),
                     &data.y_dph,
                     &Validation::LeaveOneOut,
                     &Grid::default(),
@@ -109,7 +130,7 @@ pub fn run(a: &TrainArgs, command_line: &str) -> anyhow::Result<()> {
                 Some(r) => {
                     // The tuning works on the recording: the training set is rebuilt after
                     // it rather than held through it (560 MB on 10⁷ samples at --block 1).
-                    data.x = Vec::new();
+                    data.x = FeatureRows::with_capacity(data.x.dim(), 0);
                     data.y_dph = Vec::new();
                     let tuned = rlg_calibrate::tune_recording(
                         r,
@@ -119,7 +140,7 @@ pub fn run(a: &TrainArgs, command_line: &str) -> anyhow::Result<()> {
                         &Grid::default(),
                         &pb,
                     )?;
-                    data = dataset::from_recording(r, &sel)?;
+                    data = dataset::from_recording_rows(r, &sel)?;
                     tuned
                 }
             };
@@ -135,9 +156,10 @@ pub fn run(a: &TrainArgs, command_line: &str) -> anyhow::Result<()> {
     // is 320 MB the training does not use.
     drop(rec);
     let m = match a.budget {
+        // The exact solve is capped at 12 000 samples (checked above): its rows as vectors.
         None => ModelFile::train(
             &data.features,
-            &data.x,
+            &vecs(&data.x),
             &data.y_dph,
             sigma,
             c,

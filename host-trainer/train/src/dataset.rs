@@ -5,16 +5,17 @@ use std::path::Path;
 
 use compensator_core::Feature;
 
-use crate::features::{self, FeatureError};
+use crate::features::{self, FeatureError, FeatureRows};
 use rlg_io::recording::Recording;
 
-/// Raw training inputs and targets.
+/// Raw training inputs and targets; the rows one vector each, or one block
+/// ([`FeatureRows`], for training sets too long to hold as separate vectors).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Dataset {
+pub struct Dataset<X = Vec<Vec<f64>>> {
     /// Feature names in column order (`Feature::name` strings).
     pub features: Vec<String>,
     /// One row of raw features per training sample.
-    pub x: Vec<Vec<f64>>,
+    pub x: X,
     /// Target gyro output per sample, °/h.
     pub y_dph: Vec<f64>,
     /// Sample period of the underlying 1 Hz stream, s (the board's dT/dt filter runs at it).
@@ -125,6 +126,14 @@ pub fn from_recording(rec: &Recording, sel: &RecordingSelection) -> Result<Datas
     from_recording_with(rec, sel, &[Feature::TempC, Feature::TempRateCPerS])
 }
 
+/// [`from_recording`] with the rows in one block.
+pub fn from_recording_rows(
+    rec: &Recording,
+    sel: &RecordingSelection,
+) -> Result<Dataset<FeatureRows>, DatasetError> {
+    from_recording_rows_with(rec, sel, &[Feature::TempC, Feature::TempRateCPerS])
+}
+
 /// Builds the training set `features` → `rate_dph` from a recording.
 ///
 /// The features are computed over the whole recording (so the estimator's state at `from_s`
@@ -136,6 +145,21 @@ pub fn from_recording_with(
     sel: &RecordingSelection,
     features: &[Feature],
 ) -> Result<Dataset, DatasetError> {
+    let d = from_recording_rows_with(rec, sel, features)?;
+    Ok(Dataset {
+        x: (0..d.x.len()).map(|k| d.x[k].to_vec()).collect(),
+        features: d.features,
+        y_dph: d.y_dph,
+        dt_s: d.dt_s,
+    })
+}
+
+/// [`from_recording_with`] with the rows in one block.
+pub fn from_recording_rows_with(
+    rec: &Recording,
+    sel: &RecordingSelection,
+    features: &[Feature],
+) -> Result<Dataset<FeatureRows>, DatasetError> {
     let n = rec.len();
     if n < 2 || rec.temp_c.len() != n || rec.rate_dph.len() != n {
         return Err(DatasetError::Empty(format!(
@@ -174,20 +198,20 @@ pub fn from_recording_with(
             .into());
         }
         let dim = series.rows.dim();
-        keep.chunks_exact(sel.block)
-            .map(|c| {
-                let m = c.len() as f64;
-                let xm: Vec<f64> = (0..dim)
-                    .map(|d| c.iter().map(|&k| series.rows[k][d]).sum::<f64>() / m)
-                    .collect();
-                (xm, c.iter().map(|&k| rec.rate_dph[k]).sum::<f64>() / m)
-            })
-            .unzip()
+        let mut x = FeatureRows::with_capacity(dim, keep.len() / sel.block);
+        let mut y = Vec::with_capacity(keep.len() / sel.block);
+        for c in keep.chunks_exact(sel.block) {
+            let m = c.len() as f64;
+            x.push_row((0..dim).map(|d| c.iter().map(|&k| series.rows[k][d]).sum::<f64>() / m));
+            y.push(c.iter().map(|&k| rec.rate_dph[k]).sum::<f64>() / m);
+        }
+        (x, y)
     } else {
-        (
-            keep.iter().map(|&k| series.rows[k].to_vec()).collect(),
-            keep.iter().map(|&k| rec.rate_dph[k]).collect(),
-        )
+        let mut x = FeatureRows::with_capacity(series.rows.dim(), keep.len());
+        for &k in &keep {
+            x.push_row(series.rows[k].iter().copied());
+        }
+        (x, keep.iter().map(|&k| rec.rate_dph[k]).collect())
     };
     Ok(Dataset {
         features: series.names(),

@@ -10,6 +10,7 @@ use compensator_core::Feature;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
+use crate::features::RowSet;
 use crate::lssvm::{self, Lssvm, LssvmError};
 
 /// The only model-file layout this build reads and writes.
@@ -205,9 +206,9 @@ impl ModelFile {
     /// Wraps an already trained regression (for example a reduced one, see
     /// [`crate::lssvm::sparse`]) with range, reference and training errors on its training
     /// set `x`, `y_dph` (raw features, °/h).
-    pub fn from_trained(
+    pub fn from_trained<X: RowSet + ?Sized>(
         model: Lssvm,
-        x: &[Vec<f64>],
+        x: &X,
         y_dph: &[f64],
         rate_tau_s: f64,
         dt_s: f64,
@@ -215,30 +216,30 @@ impl ModelFile {
         provenance: Provenance,
     ) -> Result<ModelFile, ModelError> {
         let features = model.features.clone();
-        if x.is_empty() || x.len() != y_dph.len() {
+        let n = x.n_rows();
+        if n == 0 || n != y_dph.len() {
             return Err(ModelError::Invalid(format!(
-                "{} training rows but {} targets",
-                x.len(),
+                "{n} training rows but {} targets",
                 y_dph.len()
             )));
         }
-        let resid: Vec<f64> = x
-            .iter()
+        let rows = || (0..n).map(|i| x.row(i));
+        let resid: Vec<f64> = rows()
             .zip(y_dph)
             .map(|(r, y)| model.predict(r) - y)
             .collect();
         let training = TrainingSummary {
-            samples: x.len(),
+            samples: n,
             rms_dph: rms(&resid),
             max_abs_dph: resid.iter().fold(0.0, |m, v| f64::max(m, v.abs())),
             loo_rms_dph,
         };
         let dim = features.len();
         let input_lo: Vec<f64> = (0..dim)
-            .map(|d| x.iter().map(|r| r[d]).fold(f64::INFINITY, f64::min))
+            .map(|d| rows().map(|r| r[d]).fold(f64::INFINITY, f64::min))
             .collect();
         let input_hi: Vec<f64> = (0..dim)
-            .map(|d| x.iter().map(|r| r[d]).fold(f64::NEG_INFINITY, f64::max))
+            .map(|d| rows().map(|r| r[d]).fold(f64::NEG_INFINITY, f64::max))
             .collect();
         let reference_input = reference_input(&features, &input_lo, &input_hi);
         let reference_dph = model.predict(&reference_input);

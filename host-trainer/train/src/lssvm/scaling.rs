@@ -6,6 +6,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::LssvmError;
+use crate::features::RowSet;
 
 /// Mean and population standard deviation of each input feature, in the feature's unit.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -21,12 +22,13 @@ impl Scaling {
     ///
     /// A feature whose values are all equal (std 0 or too small to divide by) is an error that
     /// names it: such a feature carries no information and would divide by zero.
-    pub fn fit(names: &[String], x: &[Vec<f64>]) -> Result<Scaling, LssvmError> {
+    pub fn fit<X: RowSet + ?Sized>(names: &[String], x: &X) -> Result<Scaling, LssvmError> {
         let dim = names.len();
-        if x.is_empty() {
+        if x.n_rows() == 0 {
             return Err(LssvmError::Empty);
         }
-        for (i, row) in x.iter().enumerate() {
+        let rows = || (0..x.n_rows()).map(|i| x.row(i));
+        for (i, row) in rows().enumerate() {
             if row.len() != dim {
                 return Err(LssvmError::Dimension {
                     row: i,
@@ -42,13 +44,13 @@ impl Scaling {
                 });
             }
         }
-        let n = x.len() as f64;
+        let n = x.n_rows() as f64;
         let mut mean = vec![0.0; dim];
         let mut scale = vec![0.0; dim];
         for d in 0..dim {
-            let m = x.iter().map(|r| r[d]).sum::<f64>() / n;
+            let m = rows().map(|r| r[d]).sum::<f64>() / n;
             // Two-pass variance: the features sit far from zero (°C) relative to their spread.
-            let var = x.iter().map(|r| (r[d] - m).powi(2)).sum::<f64>() / n;
+            let var = rows().map(|r| (r[d] - m).powi(2)).sum::<f64>() / n;
             let s = var.sqrt();
             // Relative to the feature's magnitude: a spread at rounding level is no spread.
             // Also catches s = 0 at m = 0 (the threshold is then 0).
