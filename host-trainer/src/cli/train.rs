@@ -129,7 +129,7 @@ pub fn run(a: &TrainArgs, command_line: &str) -> anyhow::Result<()> {
                 )?,
                 Some(r) => {
                     // The tuning works on the recording: the training set is rebuilt after
-                    // it rather than held through it (560 MB on 10⁷ samples at --block 1).
+                    // it rather than held through it (240 MB on 10⁷ samples at --block 1).
                     data.x = FeatureRows::with_capacity(data.x.dim(), 0);
                     data.y_dph = Vec::new();
                     let tuned = rlg_calibrate::tune_recording(
@@ -153,7 +153,7 @@ pub fn run(a: &TrainArgs, command_line: &str) -> anyhow::Result<()> {
         }
     };
     // The recording was needed for the stream check and the tuning only: on 10⁷ samples it
-    // is 320 MB the training does not use.
+    // is 240 MB the training does not use.
     drop(rec);
     let m = match a.budget {
         // The exact solve is capped at 12 000 samples (checked above): its rows as vectors.
