@@ -128,4 +128,51 @@ fn calibrate_with_the_close_loop_from_the_command_line() {
     let dg = held("diagnosed features (close loop)").expect("an adopted diagnosed model");
     assert!(dg < ls, "diagnosed {dg} vs LS-SVM {ls}");
     assert!(stdout.contains("temp_play_c"), "{stdout}");
+
+    // Its board table is written beside the [T, dT/dt] one, held to the same f32 limit, and
+    // through the board's f32 compensator it holds the f64 model's held-out figure.
+    let db = &summary["diagnosed_board"];
+    let features: Vec<&str> = db["features"]
+        .as_array()
+        .expect("a diagnosed board table")
+        .iter()
+        .map(|f| f.as_str().unwrap())
+        .collect();
+    assert!(
+        features.iter().any(|f| f.starts_with("temp_play_c(")),
+        "{features:?}"
+    );
+    assert!(db["f32_deviation_dph"].as_f64().unwrap() <= db["f32_limit_dph"].as_f64().unwrap());
+    let board = db["held_out_stability_dph"].as_f64().unwrap();
+    assert!(
+        (board - dg).abs() <= 0.05 * dg,
+        "board f32 {board} vs f64 {dg}"
+    );
+    let m = rlg_train::model::ModelFile::read(&out.join("model_diagnosed.json")).unwrap();
+    assert_eq!(m.lssvm.features, features);
+    rlg_train::export::check_precision(&m).unwrap();
+    for f in ["table_diagnosed.rs", "table_diagnosed.h"] {
+        let text = std::fs::read_to_string(out.join(f)).unwrap();
+        assert!(text.contains("temp_play_c("), "{f}");
+    }
+    let files = summary["files"].as_array().unwrap();
+    for f in [
+        "model_diagnosed.json",
+        "table_diagnosed.rs",
+        "table_diagnosed.h",
+    ] {
+        assert!(files.iter().any(|x| x == f), "{f} not listed");
+    }
+    // Every key it writes is documented.
+    let schema =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/calibrate/SUMMARY.md"))
+            .unwrap();
+    for k in db.as_object().unwrap().keys() {
+        assert!(
+            schema.contains(&format!("`diagnosed_board.{k}`")),
+            "undocumented key diagnosed_board.{k}"
+        );
+    }
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(report.contains("## Board table on the diagnosed features"));
 }

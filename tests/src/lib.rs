@@ -8,6 +8,7 @@
 //! * [`fuzz_checks`]: the properties the fuzz targets check, replayed on the kept corpus.
 
 pub mod budgets;
+pub mod c_header;
 pub mod e2e;
 pub mod firmware;
 pub mod fuzz_checks;

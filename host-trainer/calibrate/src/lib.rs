@@ -288,6 +288,26 @@ pub struct Calibration {
     pub lssvm_support: usize,
     /// Lines the report must show (a changed choice, a caveat).
     pub notes: Vec<String>,
+    /// The table on the diagnosed features, when the close loop adopts them (`rlg calibrate
+    /// --diagnose`; [`calibrate`] leaves it `None`).
+    pub diagnosed_board: Option<DiagnosedBoard>,
+}
+
+/// A board table on the inputs the diagnosis of the training span added (a lagged gradient,
+/// a play operator, …: `compensator_core::Feature`, which the board computes from T itself),
+/// written beside the [T, dT/dt] table when the close loop adopts those inputs by
+/// cross-validation.
+#[derive(Clone, Debug)]
+pub struct DiagnosedBoard {
+    /// The model its tables hold.
+    pub model: ModelFile,
+    /// Largest |f32 − f64| of its correction over the trained range, °/h.
+    pub f32_deviation_dph: f64,
+    /// The export limit it was held to, °/h.
+    pub f32_limit_dph: f64,
+    /// Held-out bias stability of the output compensated through the board's f32
+    /// `Compensator` (None when nothing is held out), °/h.
+    pub board_stability_dph: Option<f64>,
 }
 
 impl Calibration {
@@ -1133,6 +1153,7 @@ pub fn calibrate(
         rows,
         series: series_out,
         lssvm_support: lssvm.support.len(),
+        diagnosed_board: None,
         notes,
     })
 }

@@ -168,6 +168,9 @@ pub struct BoardSummary {
     pub reference_dph: f64,
     /// CV points refused for f32 precision: (σ, c, departure °/h).
     pub refused: Vec<(f64, f64, f64)>,
+    /// Held-out bias stability of the output compensated through the board's f32 evaluation,
+    /// °/h (None: nothing held out).
+    pub held_out_stability_dph: Option<f64>,
 }
 
 /// `summary.json`.
@@ -193,6 +196,9 @@ pub struct Summary {
     pub tuning: TuningSummary,
     /// The board table.
     pub board: BoardSummary,
+    /// The board table on the diagnosed features (`--diagnose`, when the close loop adopts
+    /// them).
+    pub diagnosed_board: Option<BoardSummary>,
     /// The comparison.
     pub models: Vec<ModelSummary>,
     /// Caveats and changed choices.
@@ -222,8 +228,15 @@ fn sci(v: Option<f64>) -> String {
         .map_or_else(|| "—".to_string(), |v| format!("{v:.3e}"))
 }
 
-fn board_summary(m: &ModelFile, refused: &[(f64, f64, f64)], dev: f64, limit: f64) -> BoardSummary {
+fn board_summary(
+    m: &ModelFile,
+    refused: &[(f64, f64, f64)],
+    dev: f64,
+    limit: f64,
+    held_out_stability_dph: Option<f64>,
+) -> BoardSummary {
     BoardSummary {
+        held_out_stability_dph,
         features: m.lssvm.features.clone(),
         sigma: m.lssvm.sigma,
         c: m.lssvm.c,
@@ -270,7 +283,19 @@ pub fn summary(c: &Calibration, inputs: &Inputs, files: &[String]) -> Summary {
             &c.board.refused,
             c.board.f32_deviation_dph,
             c.board.f32_limit_dph,
+            c.row(crate::BOARD)
+                .and_then(|r| r.held_out.as_ref())
+                .map(|h| h.stability_dph),
         ),
+        diagnosed_board: c.diagnosed_board.as_ref().map(|d| {
+            board_summary(
+                &d.model,
+                &[],
+                d.f32_deviation_dph,
+                d.f32_limit_dph,
+                d.board_stability_dph,
+            )
+        }),
         models: c
             .rows
             .iter()
@@ -419,6 +444,26 @@ pub fn markdown(c: &Calibration, inputs: &Inputs) -> String {
             ""
         }
     );
+    if let Some(d) = &c.diagnosed_board {
+        let l = &d.model.lssvm;
+        let _ = writeln!(
+            s,
+            "## Board table on the diagnosed features\n\nThe close loop adopted the inputs \
+             [{}] (see the notes): fixed-size LS-SVM, {} support vectors, σ = {:.4}, c = {:.4}; \
+             f32 evaluation of the correction within {:.2e} °/h of the f64 model (limit \
+             {:.1e}); held out through the board's f32 compensator: {} °/h ({w} s stability). \
+             The board computes these inputs from T itself (`compensator_core::Feature`); a C \
+             firmware must compute the inputs `rlg_features` names. Files: \
+             `model_diagnosed.json`, `table_diagnosed.rs`, `table_diagnosed.h`.\n",
+            l.features.join(", "),
+            l.support.len(),
+            l.sigma,
+            l.c,
+            d.f32_deviation_dph,
+            d.f32_limit_dph,
+            sci(d.board_stability_dph),
+        );
+    }
     let _ = writeln!(
         s,
         "Figures: `held_out.png` ({w} s means over time), `residual_vs_temperature.png`, \
@@ -432,15 +477,22 @@ fn write_text(path: &Path, text: &str) -> anyhow::Result<()> {
         .with_context(|| format!("writing {}", path.display()))
 }
 
-fn write_tables(dir: &Path, m: &ModelFile, command: &str) -> anyhow::Result<Vec<String>> {
-    m.write(&dir.join("model.json"))?;
-    export::write_board_table(m, command, &dir.join("table.rs"), Format::Rust)?;
-    export::write_board_table(m, command, &dir.join("table.h"), Format::C)?;
-    Ok(vec![
-        "model.json".into(),
-        "table.rs".into(),
-        "table.h".into(),
-    ])
+/// Writes `model{stem}.json`, `table{stem}.rs` and `table{stem}.h`.
+fn write_tables(
+    dir: &Path,
+    m: &ModelFile,
+    command: &str,
+    stem: &str,
+) -> anyhow::Result<Vec<String>> {
+    let names = [
+        format!("model{stem}.json"),
+        format!("table{stem}.rs"),
+        format!("table{stem}.h"),
+    ];
+    m.write(&dir.join(&names[0]))?;
+    export::write_board_table(m, command, &dir.join(&names[1]), Format::Rust)?;
+    export::write_board_table(m, command, &dir.join(&names[2]), Format::C)?;
+    Ok(names.to_vec())
 }
 
 fn centred(v: &[f64]) -> Vec<f64> {
@@ -579,7 +631,10 @@ pub fn prepare_dir(dir: &Path) -> anyhow::Result<()> {
 /// Writes the folder of a dynamic calibration; returns the files written.
 pub fn write(c: &Calibration, inputs: &Inputs, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     prepare_dir(dir)?;
-    let mut files = write_tables(dir, &c.board_model, &inputs.command)?;
+    let mut files = write_tables(dir, &c.board_model, &inputs.command, "")?;
+    if let Some(d) = &c.diagnosed_board {
+        files.extend(write_tables(dir, &d.model, &inputs.command, "_diagnosed")?);
+    }
     files.extend(figures(c, dir)?);
     write_text(&dir.join("report.md"), &markdown(c, inputs))?;
     files.push("report.md".into());
@@ -626,7 +681,15 @@ pub fn static_summary(c: &StaticCalibration, inputs: &Inputs, files: &[String]) 
             cv_rms_dph: c.tuned.cv_rms_dph,
             points: c.tuned.curve.len() + c.tuned.refined.len(),
         },
-        board: board_summary(&c.model, &c.refused, c.f32_deviation_dph, c.f32_limit_dph),
+        board: board_summary(
+            &c.model,
+            &c.refused,
+            c.f32_deviation_dph,
+            c.f32_limit_dph,
+            // Static mode scores the f64 models' RMS over test points, not a board stream.
+            None,
+        ),
+        diagnosed_board: None,
         models: vec![
             row(
                 "polynomial in T",
@@ -664,7 +727,7 @@ pub fn write_static(
     dir: &Path,
 ) -> anyhow::Result<Vec<PathBuf>> {
     prepare_dir(dir)?;
-    let mut files = write_tables(dir, &c.model, &inputs.command)?;
+    let mut files = write_tables(dir, &c.model, &inputs.command, "")?;
     let (lo, hi) = (c.model.input_lo[0], c.model.input_hi[0]);
     let grid: Vec<f64> = (0..=200)
         .map(|i| lo + (hi - lo) * f64::from(i) / 200.0)

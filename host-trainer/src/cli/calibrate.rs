@@ -25,7 +25,9 @@ pub struct CalibrateArgs {
     /// Units of the recordings' columns.
     #[command(flatten)]
     pub units: super::UnitArgs,
-    /// Output folder: report.md, summary.json, PNG figures, model.json, table.rs, table.h.
+    /// Output folder: report.md, summary.json, PNG figures, model.json, table.rs, table.h
+    /// (with --diagnose, when the diagnosed inputs are adopted, also model_diagnosed.json,
+    /// table_diagnosed.rs, table_diagnosed.h).
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Support vectors of the board table (its capacity).
@@ -63,7 +65,8 @@ pub struct CalibrateArgs {
     pub even_temperature: bool,
     /// Also diagnose the training span for missing physics and, where the close loop adopts
     /// the diagnosed features by cross-validation, compare that model on the same held-out
-    /// samples (`rlg close-loop`'s protocol).
+    /// samples (`rlg close-loop`'s protocol) and write its board table beside the
+    /// [T, dT/dt] one.
     #[arg(long, conflicts_with = "static_only")]
     pub diagnose: bool,
     /// Physics model the diagnosis starts from (TOML `[[terms]]` or a scenario file; `rlg
@@ -188,6 +191,18 @@ pub fn run(a: &CalibrateArgs, command_line: &str) -> anyhow::Result<()> {
         "board table: σ = {:.4}, c = {:.4}, {} vectors, f32 within {:.1e} °/h",
         c.board.sigma, c.board.c, c.board.support_vectors, c.board.f32_deviation_dph
     );
+    if let Some(d) = &c.diagnosed_board {
+        let l = &d.model.lssvm;
+        println!(
+            "board table on the diagnosed features [{}]: σ = {:.4}, c = {:.4}, {} vectors, f32 \
+             within {:.1e} °/h",
+            l.features.join(", "),
+            l.sigma,
+            l.c,
+            l.support.len(),
+            d.f32_deviation_dph
+        );
+    }
     println!(
         "wrote {} files to {} (report: {})",
         files.len(),
@@ -208,7 +223,7 @@ fn diagnosed_row(
     provenance: &Provenance,
 ) -> anyhow::Result<()> {
     use compensator_core::Feature;
-    use rlg_calibrate::{HeldOut, HeldOutScore, ModelRow};
+    use rlg_calibrate::{DiagnosedBoard, HeldOut, HeldOutScore, ModelRow};
     use rlg_closeloop::{
         augmented_features, train_and_score, train_and_score_on, Inputs, Protocol,
     };
@@ -282,6 +297,26 @@ fn diagnosed_row(
         ));
         return Ok(());
     }
+    // Its table, under the same f32 limit as the [T, dT/dt] table's.
+    let table = match rlg_train::export::precision(&aug.model) {
+        Ok(p) if p.deviation_dph <= p.limit_dph => {
+            c.diagnosed_board = Some(DiagnosedBoard {
+                model: aug.model.clone(),
+                f32_deviation_dph: p.deviation_dph,
+                f32_limit_dph: p.limit_dph,
+                board_stability_dph: aug.board_b100_dph,
+            });
+            "Its board table: `table_diagnosed.rs`, `table_diagnosed.h`, \
+             `model_diagnosed.json`."
+                .to_string()
+        }
+        Ok(p) => format!(
+            "Its board table is not written: its f32 evaluation departs by {:.2e} °/h, beyond \
+             the limit {:.1e} °/h (lower --c-min).",
+            p.deviation_dph, p.limit_dph
+        ),
+        Err(e) => format!("Its board table is not written: {e}."),
+    };
     let stream = test.unwrap_or(cal);
     let k0 = aug.test_from;
     let time = &stream.time_s[k0..];
@@ -304,8 +339,7 @@ fn diagnosed_row(
     c.notes.push(format!(
         "--diagnose: the close loop adopts the diagnosed features [{described}] (CV rms {:.3e} \
          against {:.3e} °/h); their model is scored on the held-out samples from {:.0} s (the \
-         close loop's split: {} sample(s) from the other rows'). Its board table: `rlg \
-         close-loop --recording {} --to-s {end:.0} --table FILE`.",
+         close loop's split: {} sample(s) from the other rows'). {}",
         aug.cv_rms_dph,
         base.cv_rms_dph,
         time[0],
@@ -313,7 +347,7 @@ fn diagnosed_row(
             let k = stream.time_s.partition_point(|t| *t < c.series.start_s);
             k.abs_diff(k0)
         },
-        a.recording.display()
+        table
     ));
     c.rows.push(ModelRow {
         name: "diagnosed features (close loop)".into(),

@@ -3,9 +3,6 @@
 //! header of its table compiles and evaluates as the Rust board code does, and a large-bias
 //! bursty log gives a static table that runs on the board.
 
-use std::io::Write;
-use std::process::{Command, Stdio};
-
 use indicatif::ProgressBar;
 
 use compensator_core::{Compensator, SensorLimits};
@@ -118,85 +115,6 @@ bias_instability_dph = 3e-4
 rrw_dph_per_rt_h = 3e-5
 "#;
 
-/// The C header of a table, compiled with `-Wall -Werror` beside the reference evaluator and
-/// run on `xs`; returns its outputs (°/h), after checking its CRC line against the table's.
-fn run_c_header(
-    header: &str,
-    dir: &std::path::Path,
-    xs: &[Vec<f32>],
-    crc: u32,
-) -> Option<Vec<f64>> {
-    if Command::new("cc").arg("--version").output().is_err()
-        && tests::firmware::skip_for_missing(
-            "calibrate C header",
-            "the C compiler `cc`",
-            "install one (`apt-get install gcc`)",
-        )
-    {
-        return None;
-    }
-    std::fs::create_dir_all(dir).unwrap();
-    std::fs::write(dir.join("rlg_model_table.h"), header).unwrap();
-    let src = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/c/rlg_eval.c");
-    let exe = dir.join("rlg_eval");
-    let out = Command::new("cc")
-        .args([
-            "-std=c99",
-            "-O2",
-            "-Wall",
-            "-Wextra",
-            "-Werror",
-            "-DRLG_EVAL_MAIN",
-        ])
-        .arg("-I")
-        .arg(dir)
-        .arg(src)
-        .arg("-o")
-        .arg(&exe)
-        .arg("-lm")
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let input: String = xs
-        .iter()
-        .map(|x| {
-            x.iter()
-                .map(|v| format!("{v:e}"))
-                .collect::<Vec<_>>()
-                .join(" ")
-                + "\n"
-        })
-        .collect();
-    let mut child = Command::new(&exe)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .spawn()
-        .unwrap();
-    child
-        .stdin
-        .take()
-        .unwrap()
-        .write_all(input.as_bytes())
-        .unwrap();
-    let out = child.wait_with_output().unwrap();
-    assert!(out.status.success());
-    let text = String::from_utf8(out.stdout).unwrap();
-    let mut lines = text.lines();
-    let crcs: Vec<u64> = lines
-        .next()
-        .unwrap()
-        .split_whitespace()
-        .skip(1)
-        .map(|v| v.parse().unwrap())
-        .collect();
-    assert_eq!(crcs, [u64::from(crc); 2], "C CRC vs the Rust table's");
-    Some(lines.map(|l| l.parse().unwrap()).collect())
-}
-
 #[test]
 fn a_gyro_of_its_own_calibrates_without_sigma_or_c_and_its_tables_agree() {
     let scenario = Scenario::from_toml_str(OWN_SCENARIO, "own-gyro.toml").unwrap();
@@ -307,7 +225,7 @@ fn a_gyro_of_its_own_calibrates_without_sigma_or_c_and_its_tables_agree() {
             })
         })
         .collect();
-    if let Some(got) = run_c_header(&header, &dir.path().join("c"), &xs, t.crc32()) {
+    if let Some(got) = tests::c_header::evaluate(&header, &dir.path().join("c"), &xs, t.crc32()) {
         let board = t.as_model();
         let worst = xs
             .iter()

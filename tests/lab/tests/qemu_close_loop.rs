@@ -3,7 +3,7 @@
 //! term beside the kernel on [T, dT/dt]), cross-validation adopts it, it beats the
 //! [T, dT/dt] LS-SVM on a later recording of the same gyro (which neither the diagnosis nor
 //! the training saw), and its exported three-input table runs in QEMU (Cortex-M4F) bit for bit
-//! like the host `Compensator`.
+//! like the host `Compensator`; its C header evaluates as the Rust board code does.
 //!
 //! Needs `qemu-system-arm` and the thumb target (`bash tests/setup.sh`); without QEMU it fails,
 //! unless `RLG_ALLOW_MISSING_TOOLS` is set.
@@ -108,4 +108,29 @@ fn diagnosed_hysteresis_becomes_a_board_feature_that_runs_bit_for_bit() {
         samples.len()
     );
     assert_eq!(identical, samples.len());
+
+    // Its C header, for a C firmware: the same numbers through the reference C evaluator,
+    // over a grid of the three inputs (the play state spans the temperature range).
+    let s = &t.spec;
+    let at = |d: usize, k: usize| s.input_lo[d] + (s.input_hi[d] - s.input_lo[d]) * k as f32 / 8.0;
+    let xs: Vec<Vec<f32>> = (0..=8)
+        .flat_map(|i| {
+            (0..=8).flat_map(move |j| (0..=8).map(move |k| vec![at(0, i), at(1, j), at(2, k)]))
+        })
+        .collect();
+    let header = export::c_header_source(&aug.model, "qemu_close_loop test").unwrap();
+    if let Some(got) = tests::c_header::evaluate(&header, &dir.join("close_loop_c"), &xs, t.crc32())
+    {
+        let board = t.as_model();
+        let worst = xs
+            .iter()
+            .zip(&got)
+            .map(|(x, g)| (g - f64::from(board.predict_dph(&[x[0], x[1], x[2]]))).abs())
+            .fold(0.0, f64::max);
+        println!(
+            "three-input C header vs Rust board code over {} points: max {worst:.2e} °/h",
+            xs.len()
+        );
+        assert!(worst <= 1e-5, "{worst:e}");
+    }
 }
