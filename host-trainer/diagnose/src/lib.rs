@@ -27,6 +27,7 @@
 mod bootstrap;
 pub mod candidates;
 mod explain;
+pub mod kalman;
 pub mod linalg;
 pub mod locate;
 pub mod noise;

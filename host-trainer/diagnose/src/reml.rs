@@ -28,8 +28,9 @@
 use faer::Mat;
 use rayon::prelude::*;
 
+use super::kalman::BlockStateSpace;
 use super::linalg::Basis;
-use super::noise::{block_mean_autocov, GlsWhitener};
+use super::noise::block_mean_autocov;
 use rlg_eval::noise::NoiseParams;
 
 /// Dense covariance (°/h)² of the means of `nb` consecutive `m`-sample blocks of gyro noise
@@ -53,25 +54,53 @@ pub fn block_mean_cov(p: &NoiseParams, nb: usize, m: usize, dt_s: f64) -> Mat<f6
     })
 }
 
-/// Longest series the REML likelihood is evaluated on (see [`reml_noise`]): without rate
-/// random walk (one coordinate, about 30 factors) a day of 100 s means unpooled; with it
-/// (up to about 200 factors) 400. Pooling a day's means to 300 s moved the bias instability
-/// enough to turn a warm-up at detectability 6.5 on the matched benchmark from p = 0.002 to
-/// 0.15.
-pub const REML_FIT_BLOCKS: (usize, usize) = (900, 400);
-
 /// Grid of the variance ratios, log₁₀ of the component's mean variance over the white
 /// variance; `None` is a component left out.
 const LOG_RATIO: (f64, f64, f64) = (-3.0, 1.5, 0.25);
 
+/// −2ℓ of REML and the profiled white block variance s² for fixed-effect columns `cols_b`
+/// and block means `y_b` under Σ = s²·Σ₀, Σ₀ the block-mean covariance of white noise of unit
+/// block variance, the bank at B² = `b2` and rate random walk at K² = `k2` (°/h units of
+/// `NoiseParams`, relative to s²): −2ℓ = (n − p)·ln(rᵀΣ₀⁻¹r) + ln det Σ₀ + ln det(XᵀΣ₀⁻¹X),
+/// with Σ₀ whitened by the Kalman filter ([`BlockStateSpace`]), exact and linear in n.
+/// `None` when Σ₀ is not positive definite or the fit leaves nothing.
+fn reml_objective(
+    cols_b: &[Vec<f64>],
+    y_b: &[f64],
+    block: usize,
+    dt_s: f64,
+    b2: f64,
+    k2: f64,
+) -> Option<(f64, f64)> {
+    let unit = NoiseParams {
+        // White block variance (N·60)²/(m·dt) = 1.
+        arw_dph_rt_h: (block as f64 * dt_s).sqrt() / 60.0,
+        bias_instability_dph: b2.sqrt(),
+        rrw_dph_per_rt_h: k2.sqrt(),
+        ..Default::default()
+    };
+    let mut series: Vec<&[f64]> = vec![y_b];
+    series.extend(cols_b.iter().map(Vec::as_slice));
+    let (w, log_det) = BlockStateSpace::new(&unit, block, dt_s).whiten(&series)?;
+    let basis = Basis::new(&w[1..]);
+    let r = basis.residual(&w[0]);
+    let rss: f64 = r.iter().map(|x| x * x).sum();
+    let dof = (y_b.len() - cols_b.len()) as f64;
+    if rss.is_nan() || rss <= 0.0 {
+        return None;
+    }
+    Some((dof * rss.ln() + log_det + basis.log_gram_det(), rss / dof))
+}
+
 /// REML fit of white level, bias instability and rate random walk to block means `y_b` with
 /// fixed-effect columns `cols_b`. Σ = s²·(I + u·S_B/t_B + v·S_K/t_K) with S_B, S_K the
 /// unit-B and unit-K covariances ([`block_mean_cov`]) and t their mean variances, so u and v
-/// are ratios to the white variance; s² is profiled out (REML: s² = rᵀΣ₀⁻¹r/(n − p)), and
-/// −2ℓ = (n − p)·ln(rᵀΣ₀⁻¹r) + ln det Σ₀ + ln det(XᵀΣ₀⁻¹X) is minimised over (u, v) by
-/// coordinate descent on a log grid (each ratio 10⁻³ … 10^1.5 in quarter decades, or 0),
-/// then a parabolic step on each coordinate. `None` when no grid point has a
-/// positive-definite Σ.
+/// are ratios to the white variance; s² is profiled out ([`reml_objective`]) and −2ℓ is
+/// minimised over (u, v) by coordinate descent on a log grid (each ratio 10⁻³ … 10^1.5 in
+/// quarter decades, or 0), then a parabolic step on each coordinate. Every block is kept,
+/// however long the record: pooled to 7 000 s means, a clean 31-day record's white level
+/// came out 1.4× the truth, the bank's short correlation times taken for white noise.
+/// `None` when no grid point has a positive-definite Σ.
 pub fn reml_noise(
     cols_b: &[Vec<f64>],
     y_b: &[f64],
@@ -79,66 +108,27 @@ pub fn reml_noise(
     dt_s: f64,
     with_rrw: bool,
 ) -> Option<NoiseParams> {
-    // Longer records are fitted on means of `agg` consecutive blocks (exactly the means of
-    // longer blocks): each likelihood costs a dense factor, cubic in the series' length, and
-    // the slow components are what the fit is for.
-    let agg = y_b.len().div_ceil(if with_rrw {
-        REML_FIT_BLOCKS.1
-    } else {
-        REML_FIT_BLOCKS.0
-    });
-    let pool = |x: &[f64]| -> Vec<f64> {
-        x.chunks_exact(agg)
-            .map(|c| c.iter().sum::<f64>() / agg as f64)
-            .collect()
-    };
-    let y_b = pool(y_b);
-    let cols_b: Vec<Vec<f64>> = cols_b.iter().map(|c| pool(c)).collect();
-    let (y_b, cols_b, block) = (&y_b[..], &cols_b[..], block * agg);
     let nb = y_b.len();
     if nb <= cols_b.len() + 2 {
         return None;
     }
-    let unit_b = block_mean_cov(
+    // Mean block variances of the unit-B and unit-K components (block_mean_cov's diagonal).
+    let tb = block_mean_autocov(
         &NoiseParams {
             bias_instability_dph: 1.0,
             ..Default::default()
         },
-        nb,
+        1,
         block,
         dt_s,
-    );
-    let unit_k = block_mean_cov(
-        &NoiseParams {
-            rrw_dph_per_rt_h: 1.0,
-            ..Default::default()
-        },
-        nb,
-        block,
-        dt_s,
-    );
-    let mean_var = |s: &Mat<f64>| (0..nb).map(|i| s[(i, i)]).sum::<f64>() / nb as f64;
-    let (tb, tk) = (mean_var(&unit_b), mean_var(&unit_k));
-    let dof = (nb - cols_b.len()) as f64;
+    )[0];
+    let l = block as f64 * dt_s;
+    let tk = (1.0 / 60.0f64).powi(2) * (l * (nb as f64 - 1.0) / 2.0 + l / 3.0);
     // −2ℓ and the profiled s² at log ratios (None: component absent).
     let eval = |lu: Option<f64>, lv: Option<f64>| -> Option<(f64, f64)> {
         let u = lu.map_or(0.0, |x| 10f64.powf(x) / tb);
         let v = lv.map_or(0.0, |x| 10f64.powf(x) / tk);
-        let s = Mat::from_fn(nb, nb, |i, j| {
-            f64::from(u8::from(i == j)) + u * unit_b[(i, j)] + v * unit_k[(i, j)]
-        });
-        let g = GlsWhitener::from_cov(s)?;
-        let cols: Vec<Vec<f64>> = cols_b.iter().map(|c| g.whiten(c)).collect();
-        let basis = Basis::new(&cols);
-        let r = basis.residual(&g.whiten(y_b));
-        let rss: f64 = r.iter().map(|x| x * x).sum();
-        if rss.is_nan() || rss <= 0.0 {
-            return None;
-        }
-        Some((
-            dof * rss.ln() + g.log_det() + basis.log_gram_det(),
-            rss / dof,
-        ))
+        reml_objective(cols_b, y_b, block, dt_s, u, v)
     };
     let (lo, hi, step) = LOG_RATIO;
     let grid: Vec<Option<f64>> = std::iter::once(None)
