@@ -2,13 +2,11 @@
 //! its exact whitening by the Kalman filter's innovations.
 //!
 //! REML (`reml.rs`) evaluates the likelihood at many variance ratios. Factoring the dense
-//! n×n covariance each time is cubic in the series' length, and fitting a long record on
-//! means of several blocks instead confounds the white level with the bank's shorter
-//! correlation times (a clean 31-day record analysed in 700 s blocks and fitted on 7 000 s
-//! means: white level 1.4× the truth, the Allan check failed at 700 s). The same covariance
-//! is that of a state-space model with one state per Gauss–Markov process and one for rate
-//! random walk, so its Cholesky whitening is the filter's normalised innovations, in
-//! O(n·s²) for s states: every block is kept.
+//! n×n covariance each time is cubic in the series' length, which made fitting on means of
+//! several blocks a necessity; the same covariance is that of a state-space model with one
+//! state per Gauss–Markov process and one for rate random walk, so its Cholesky whitening is
+//! the filter's normalised innovations, in O(n·s²) for s states, and how far to pool is a
+//! modelling choice (`reml::pooling`).
 //!
 //! Per block b of m samples (block length L = m·dt), with the state at the block's start:
 //! - a Gauss–Markov process stepped as the generator steps it (a discrete AR(1),

@@ -54,27 +54,18 @@ pub fn block_mean_cov(p: &NoiseParams, nb: usize, m: usize, dt_s: f64) -> Mat<f6
     })
 }
 
-/// Blocks of `block_s` seconds pooled into one mean for the noise fit of `nb` blocks: enough
-/// to leave at most [`REML_FIT_BLOCKS`] means, but means no longer than [`MAX_POOLED_S`].
-/// The likelihood's cost no longer asks for pooling (`kalman.rs`: linear in the length);
-/// what does is the noise model's misfit on recordings it does not describe: on the
-/// mismatched benchmark's day-long records (1/f-like bias over four decades, rate random
-/// walk), fitting every 100 s block weighted the fit towards the short scales the
-/// record has most of, left the slow wander under-fitted and raised the clean recordings
-/// flagged at α 2 % from 5 to 7 of 60 on seed 2 (seed 1: 12 → 13 at 10 %, outside-library
-/// effects named as a mechanism 6 → 8 of 24). Pooling a long record's longer blocks further
-/// confounds the white level with the bank's short correlation times instead: a clean
-/// 31-day record of the shipped scenario (3 867 means of 700 s) fitted on 7 000 s means had
-/// its white level 1.4× the truth, failed the Allan check at 700 s by 18 sd and was called
-/// `unexplained_structure`; fitted on every block, it is `consistent`.
-pub fn pooling(nb: usize, block_s: f64, with_rrw: bool) -> usize {
-    let by_count = nb.div_ceil(if with_rrw {
+/// Blocks pooled into one mean for the noise fit of `nb` blocks: enough to leave at most
+/// [`REML_FIT_BLOCKS`] means. The likelihood's cost does not ask for it (`kalman.rs`: linear
+/// in the length); the fit's weighting of the scales does, on recordings whose slow noise the
+/// model does not describe. Two rules were tried and not kept (module README): every block
+/// unpooled, and means of at most 400 s.
+pub fn pooling(nb: usize, with_rrw: bool) -> usize {
+    nb.div_ceil(if with_rrw {
         REML_FIT_BLOCKS.1
     } else {
         REML_FIT_BLOCKS.0
-    });
-    let by_length = (MAX_POOLED_S / block_s).floor().max(1.0) as usize;
-    by_count.clamp(1, by_length)
+    })
+    .max(1)
 }
 
 /// Means the noise fit aims at ([`pooling`]), without and with rate random walk: a day of
@@ -82,10 +73,6 @@ pub fn pooling(nb: usize, block_s: f64, with_rrw: bool) -> usize {
 /// enough to turn a warm-up at detectability 6.5 on the matched benchmark from p = 0.002 to
 /// 0.15) and on 300 s means with it.
 pub const REML_FIT_BLOCKS: (usize, usize) = (900, 400);
-
-/// The longest pooled mean of the noise fit, s: four 100 s blocks, the most the benchmarks'
-/// records (10–36 h) are pooled, with rate random walk.
-pub const MAX_POOLED_S: f64 = 400.0;
 
 /// Grid of the variance ratios, log₁₀ of the component's mean variance over the white
 /// variance; `None` is a component left out.
@@ -140,7 +127,7 @@ pub fn reml_noise(
     dt_s: f64,
     with_rrw: bool,
 ) -> Option<NoiseParams> {
-    let agg = pooling(y_b.len(), block as f64 * dt_s, with_rrw);
+    let agg = pooling(y_b.len(), with_rrw);
     let pool = |x: &[f64]| -> Vec<f64> {
         x.chunks_exact(agg)
             .map(|c| c.iter().sum::<f64>() / agg as f64)
@@ -444,20 +431,6 @@ mod tests {
         assert!((gb - 1.0).abs() < 0.2, "B {gb}");
         assert!((0.5..2.0).contains(&gk), "K {gk}");
         assert!(rk.iter().filter(|k| **k > 0.0).count() >= 6, "K {rk:?}");
-    }
-
-    /// Day-long records of 100 s means are pooled as the benchmarks were designed with (a
-    /// day with rate random walk on 300 s means), never beyond 400 s means; a long record's
-    /// longer blocks are fitted unpooled.
-    #[test]
-    fn pooling_stops_at_400_s_means() {
-        assert_eq!(pooling(864, 100.0, false), 1);
-        assert_eq!(pooling(864, 100.0, true), 3);
-        assert_eq!(pooling(1300, 100.0, true), 4);
-        assert_eq!(pooling(4000, 100.0, true), 4);
-        assert_eq!(pooling(4000, 100.0, false), 4);
-        assert_eq!(pooling(3867, 700.0, true), 1);
-        assert_eq!(pooling(3900, 200.0, true), 2);
     }
 
     /// On white block means the check passes; on block means with a strong random walk that
