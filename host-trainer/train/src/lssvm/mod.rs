@@ -25,7 +25,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::features::RowSet;
 
-pub use kernel::kernel_matrix;
+pub use kernel::{kernel_matrix, KernelMatrix};
 pub use scaling::Scaling;
 pub use solve::{loo_residuals, solve, solve_dense_reference, Solution};
 

@@ -562,7 +562,7 @@ mod tests {
 
     #[test]
     fn kernel_matrix_is_symmetric_gaussian() {
-        // 150 rows: the mirrored upper triangle spans several 64-row tiles.
+        // 150 rows: columns of every length modulo the kernel's four lanes.
         let (z, _) = data(150);
         let k = kernel_matrix(&z, 0.7);
         for i in 0..150 {
