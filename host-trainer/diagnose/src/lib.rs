@@ -279,7 +279,7 @@ pub fn diagnose<'a>(
 ) -> Result<Diagnosis, DiagnoseError> {
     let prep = prepare::prepare(rec)?;
     let cache = search::ColumnCache::default();
-    let mut d = search::run(&prep, model, opts, &cache)?;
+    let mut d = search::run(&prep, model, opts, &cache, true)?;
     // Further findings: the term found is added to the model (its amplitude refitted with
     // the baseline, its non-linear parameter kept) and the search runs again on what is
     // left, with its own bootstrap threshold, until nothing more is significant.
@@ -294,7 +294,7 @@ pub fn diagnose<'a>(
             break;
         };
         current.terms.push(term);
-        let next = search::run(&prep, &current, opts, &cache)?;
+        let next = search::run(&prep, &current, opts, &cache, false)?;
         let structure_p = next.evidence.structure_p_value;
         match (next.verdict, next.findings.into_iter().next()) {
             (Verdict::MissingPhysics, Some(f)) => d.findings.push(f),

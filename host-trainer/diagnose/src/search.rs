@@ -67,11 +67,15 @@ impl ColumnCache {
     }
 }
 
+/// One pass of the search. `first`: the pass on the user's model; the later passes (after a
+/// finding) ask whether the findings account for the structure, and there the generic test
+/// keeps its one null (see `structure_under_rrw`).
 pub(crate) fn run(
     prep: &Prepared,
     model: &PhysicsModel,
     opts: &Options,
     cache: &ColumnCache,
+    first: bool,
 ) -> Result<Diagnosis, DiagnoseError> {
     let nb = prep.nb();
     let mdrive = model_drive(model, prep)?;
@@ -231,7 +235,7 @@ pub(crate) fn run(
     let thr = |_: Family| thr_all;
     // The generic test's second null, under rate random walk (see `structure_under_rrw`).
     let struct_p1 = nulls.structure.p_value(s.gen_dbic);
-    let struct_p_rrw = (gyro.rrw_dph_per_rt_h == 0.0 && struct_p1 <= STRUCTURE_RRW_BELOW)
+    let struct_p_rrw = (first && gyro.rrw_dph_per_rt_h == 0.0 && struct_p1 <= STRUCTURE_RRW_BELOW)
         .then(|| structure_under_rrw(prep, &base_b, &generic, opts))
         .flatten();
     let structure_p = struct_p_rrw.map_or(struct_p1, |q| struct_p1.max(q));
