@@ -232,7 +232,10 @@ pub struct Evidence {
     pub structure_threshold: f64,
     /// Generic-structure ΔBIC of the baseline residual.
     pub structure_delta_bic: f64,
-    /// Its bootstrap p-value (the share of noise replicates with a ΔBIC at least as low).
+    /// Its bootstrap p-value (the share of noise replicates with a ΔBIC at least as low). On
+    /// the first pass, when the fitted noise has no rate random walk and this share is at
+    /// most 0.2, the larger of it and the same test's p-value under the record's noise
+    /// refitted with rate random walk (the structure test needs both at α).
     #[serde(default)]
     pub structure_p_value: f64,
     /// Best ΔBIC of each candidate family (most negative first) with its held-out gain
