@@ -241,6 +241,32 @@ pub struct Evidence {
     /// Best ΔBIC of each candidate family (most negative first) with its held-out gain
     /// (reduction of the held-out sum of squares of 100 s means, (°/h)²).
     pub candidates: Vec<CandidateScore>,
+    /// A single step in the bias at one time that explains the record better than the aging
+    /// or periodic term the search would otherwise have named (a step not tied to
+    /// temperature is outside the term library; no finding is made after it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub step: Option<StepEvidence>,
+}
+
+/// The best single step of the bias, where it beat a slow function of time.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StepEvidence {
+    /// When the step starts (the start of its first 100 s mean), s, on the recording's clock.
+    pub t_s: f64,
+    /// Its height, °/h (generalised least squares beside the model's own terms).
+    pub height_dph: f64,
+    /// Its ΔBIC over the model in the whitened metric (two parameters: height and time).
+    pub delta_bic: f64,
+    /// The family it fitted better than.
+    pub instead_of: Mechanism,
+    /// That family's best ΔBIC.
+    pub instead_of_delta_bic: f64,
+    /// Share of bootstrap replicates of that family's fitted effect plus the fitted noise in
+    /// which the best step beats the family's best point by at least as much as on the record.
+    pub p_under_family: f64,
+    /// Share of replicates of this step plus the noise in which the family comes at least as
+    /// close to the step as on the record. The step is reported when this is the larger.
+    pub p_under_step: f64,
 }
 
 /// One family's best score.

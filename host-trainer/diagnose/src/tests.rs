@@ -196,6 +196,40 @@ fn noise_scale_and_reading_quantum_are_found() {
     );
 }
 
+/// A step in the bias at one time, not tied to temperature (outside the term library):
+/// `unexplained_structure`, not aging, and the evidence gives the step's time and height.
+#[test]
+fn step_in_time_is_not_aging() {
+    let mut sim = simulate(&scenario(vec![], 1.0), 41).expect("simulates");
+    let rec = &mut sim.recording;
+    let t_step = rec.time_s[0] + 0.6 * (rec.time_s[rec.time_s.len() - 1] - rec.time_s[0]);
+    for (r, t) in rec.rate_dph.iter_mut().zip(&rec.time_s) {
+        if *t >= t_step {
+            *r += 0.003;
+        }
+    }
+    let d = diagnose(&*rec, &PhysicsModel::paper(), &Options::default()).expect("diagnoses");
+    assert_eq!(
+        d.verdict,
+        Verdict::UnexplainedStructure,
+        "{:#?}",
+        d.evidence
+    );
+    let step = d.evidence.step.as_ref().expect("the step is reported");
+    assert_eq!(step.instead_of, Mechanism::Aging, "{step:?}");
+    assert!(step.p_under_family < step.p_under_step, "{step:?}");
+    assert!((step.height_dph / 0.003 - 1.0).abs() < 0.25, "{step:?}");
+    assert!(
+        (step.t_s - t_step).abs() < 1800.0,
+        "{step:?}, truth {t_step} s"
+    );
+    assert!(
+        d.evidence.notes.iter().any(|n| n.contains("single step")),
+        "{:?}",
+        d.evidence.notes
+    );
+}
+
 /// At ten times the paper's signal-to-noise the fitted non-linear parameters are accurate:
 /// each case pins a fix of an estimator bias that noise alone would hide.
 fn high_snr(extra: Term, seed: u64) -> Finding {
@@ -258,12 +292,7 @@ fn mode_hop_step_between_grid_points_at_high_snr() {
 /// The JSON carries the contract's field names, with `where` (not `where_`).
 #[test]
 fn json_contract_field_names() {
-    let d = run(
-        vec![Term::Aging {
-            rate_dph_per_day: 0.01,
-        }],
-        14,
-    );
+    let d = run(vec![Term::SensorLag { tau_s: 300.0 }], 12);
     let v: serde_json::Value = serde_json::to_value(&d).expect("serialises");
     assert!(["consistent", "missing_physics", "unexplained_structure"]
         .contains(&v["verdict"].as_str().unwrap_or("")));
@@ -282,8 +311,8 @@ fn json_contract_field_names() {
     ] {
         assert!(!f[k].is_null(), "findings[0].{k} missing: {v:#}");
     }
-    assert_eq!(f["mechanism"], "aging");
-    assert!(f["parameters"]["rate_dph_per_day"].is_f64());
+    assert_eq!(f["mechanism"], "sensor_lag");
+    assert!(f["parameters"]["tau_s"].is_f64());
     for k in ["t_start_s", "t_end_s", "temp_lo_c", "temp_hi_c", "phase"] {
         assert!(!f["where"][0][k].is_null(), "where.{k}");
     }

@@ -317,3 +317,24 @@ fn slow_drift_is_not_structure_under_rate_random_walk() {
         d.evidence.notes
     );
 }
+
+/// A step at one time in the independent generator's recording (design seed 1, case 127:
+/// 1.68e-3 °/h at 10.2 h under 1/f-like bias) was named aging; a single step fits it better,
+/// and the verdict is `unexplained_structure`, the step reported within an hour of its time.
+#[test]
+fn step_at_one_time_is_not_named_aging() {
+    let model = PhysicsModel::paper();
+    let case = build_case(127, Kind::Step, 1, &model).expect("case");
+    let d = rlg_diagnose::diagnose(&case.recording, &model, &rlg_diagnose::Options::default())
+        .expect("diagnoses");
+    assert_eq!(
+        d.verdict,
+        rlg_diagnose::Verdict::UnexplainedStructure,
+        "{:#?}",
+        d.evidence
+    );
+    let step = d.evidence.step.as_ref().expect("the step is reported");
+    assert_eq!(step.instead_of.name(), "aging", "{step:?}");
+    let at_h = (step.t_s - case.recording.time_s[0]) / 3600.0;
+    assert!((at_h - 10.2).abs() < 1.0, "{step:?}");
+}
