@@ -19,7 +19,8 @@ use super::refine::{argmin, refine};
 use super::reml::{allan_check, block_mean_cov, reml_noise, AllanCheck};
 use super::scan::{generic_columns, scan, Point, Scan};
 use super::score::{
-    cycle_folds, cycle_rss, delta_bic, heldout_metrics, nonlinear_of, HeldOut, ModelColumns,
+    cycle_folds, cycle_rss, delta_bic, heldout_metrics, nonlinear_of, warmup_heldout_gain, HeldOut,
+    ModelColumns,
 };
 use super::variance::{output_quantum, VarianceTest};
 use super::{
@@ -303,7 +304,12 @@ pub(crate) fn run(
                     let (term, unc) =
                         refine(prep, model, &mdrive, &beta_b, &ar, &s, &points, f, i)?;
                     let ho = heldout_metrics(prep, model, Some(&term))?;
-                    gain = base_ho.rss_b - ho.rss_b;
+                    gain = match (f, nonlinear_of(&term)) {
+                        (Family::Warmup, Some((_, nl))) => {
+                            warmup_heldout_gain(prep, model, &term, nl[0])?
+                        }
+                        _ => base_ho.rss_b - ho.rss_b,
+                    };
                     // Evidence that does not rest on the noise model: an effect of the
                     // temperature history recurs in every cycle, so fitted on the other
                     // cycles it must predict each held-out one better than the model alone.

@@ -338,3 +338,24 @@ fn step_at_one_time_is_not_named_aging() {
     let at_h = (step.t_s - case.recording.time_s[0]) / 3600.0;
     assert!((at_h - 10.2).abs() < 1.0, "{step:?}");
 }
+
+/// A warm-up of τ 1 900 s (design seed 1, case 37) lives in the record's first hour: the
+/// held-out check on 1 h chunks called it worse than nothing (`unexplained_structure`); on
+/// chunks of half its τ it is the finding, the true τ within twice its reported σ.
+#[test]
+fn short_warmup_passes_its_heldout_check() {
+    let model = PhysicsModel::paper();
+    let case = build_case(37, Kind::Library(Family::Warmup), 1, &model).expect("case");
+    let d = rlg_diagnose::diagnose(&case.recording, &model, &rlg_diagnose::Options::default())
+        .expect("diagnoses");
+    assert_eq!(
+        d.verdict,
+        rlg_diagnose::Verdict::MissingPhysics,
+        "{:#?}",
+        d.evidence
+    );
+    let f = &d.findings[0];
+    assert_eq!(f.mechanism.name(), "warmup", "{:#?}", d.evidence);
+    let (tau, sd) = (f.parameters["tau_s"], f.uncertainty["tau_s"]);
+    assert!((tau - 1911.39).abs() < 2.0 * sd, "tau {tau} ± {sd}");
+}
