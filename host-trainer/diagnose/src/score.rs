@@ -229,6 +229,16 @@ pub fn heldout_metrics(
     model: &PhysicsModel,
     extra: Option<&Term>,
 ) -> Result<HeldOut, DiagnoseError> {
+    heldout_on(prep, model, extra, &interleaved(prep.nb(), CHUNK_BLOCKS))
+}
+
+/// [`heldout_metrics`] on the folds `fold` (the fold of each block).
+fn heldout_on(
+    prep: &Prepared,
+    model: &PhysicsModel,
+    extra: Option<&Term>,
+    fold: &[usize],
+) -> Result<HeldOut, DiagnoseError> {
     let mdrive = model_drive(model, prep)?;
     let ex = extra.and_then(nonlinear_of);
     let cols = ModelColumns::new(
@@ -239,12 +249,7 @@ pub fn heldout_metrics(
     )?;
     // BIC's parameter count: the columns and a candidate's non-linear parameters.
     let nonlinear = ex.map_or(0, |(f, _)| f.n_params().saturating_sub(1));
-    cross_validate_by(
-        prep,
-        &cols,
-        nonlinear,
-        &interleaved(prep.nb(), CHUNK_BLOCKS),
-    )
+    cross_validate_by(prep, &cols, nonlinear, fold)
 }
 
 /// Fold of each block: chunks of `chunk` blocks dealt to the [`FOLDS`] folds in turn.
@@ -267,17 +272,8 @@ pub(super) fn warmup_heldout_gain(
     let block_s = prep.block as f64 * prep.dt_s;
     let chunk = ((0.5 * tau_s / block_s).round() as usize).clamp(1, CHUNK_BLOCKS);
     let fold = interleaved(prep.nb(), chunk);
-    let mdrive = model_drive(model, prep)?;
-    let base = ModelColumns::new(prep, model, &mdrive, None)?;
-    let ex = nonlinear_of(warmup);
-    let with = ModelColumns::new(
-        prep,
-        model,
-        &mdrive,
-        ex.as_ref().map(|(f, nl)| (*f, &nl[..])),
-    )?;
-    Ok(cross_validate_by(prep, &base, 0, &fold)?.rss_b
-        - cross_validate_by(prep, &with, 1, &fold)?.rss_b)
+    Ok(heldout_on(prep, model, None, &fold)?.rss_b
+        - heldout_on(prep, model, Some(warmup), &fold)?.rss_b)
 }
 
 pub(super) fn delta_bic(n: usize, rss0: f64, drss: f64, k: usize) -> f64 {
