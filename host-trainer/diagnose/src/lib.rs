@@ -5,8 +5,9 @@
 //! 1. Fit the model's linear parameters by least squares on 100 s means, driven by the
 //!    recorded temperature and its dT/dt (centred difference, see [`prepare`]).
 //! 2. Fit the gyro noise to the baseline residual's 100 s means by REML (white level and
-//!    bias instability; rate random walk added when that fails the residual's own Allan
-//!    check, [`reml`]) and whiten the means by the exact Cholesky factor of that model's
+//!    bias instability; when that fails the residual's own Allan check, rate random walk
+//!    added, [`reml`], or a rate ramp beside the model where it explains the departure
+//!    better, `ramp.rs`) and whiten the means by the exact Cholesky factor of that model's
 //!    block-mean covariance ([`noise`]).
 //! 3. For every library term the model lacks ([`candidates::Family`]), scan its non-linear
 //!    parameter on a grid, fit its amplitude jointly with the baseline, and score it by
@@ -33,6 +34,7 @@ pub mod locate;
 pub mod noise;
 pub mod plots;
 pub mod prepare;
+mod ramp;
 mod refine;
 pub mod reml;
 mod scan;
@@ -219,8 +221,10 @@ pub struct Evidence {
     /// p-value of the verdict: the smallest false-alarm probability α at which it would
     /// not be `consistent` (the smaller of the generic structure test's p-value and those of
     /// the significant candidates that count; a candidate not separable from slow noise does
-    /// not). On recordings with nothing missing the share with `p_value` ≤ α is the
-    /// false-alarm rate at α.
+    /// not), and never below [`RampEvidence::p_under_rrw`] when a rate ramp was preferred to
+    /// rate random walk (every test then rests on that choice; so do the candidates' and
+    /// the structure test's p-values). On recordings with nothing missing the share with
+    /// `p_value` ≤ α is the false-alarm rate at α.
     #[serde(default = "one")]
     pub p_value: f64,
     /// What the diagnosis could not test or assumed, in plain words.
@@ -246,6 +250,29 @@ pub struct Evidence {
     /// temperature is outside the term library; no finding is made after it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub step: Option<StepEvidence>,
+    /// Set when white noise and bias instability failed the Allan check and a rate ramp
+    /// beside the model explained the departure better than rate random walk: the noise
+    /// model is then white + B fitted beside the ramp, and aging is tested against it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rate_ramp: Option<RampEvidence>,
+}
+
+/// Rate ramp against rate random walk, the two slow terms of IEEE Std 952 that make the
+/// residual's Allan deviation rise at long cluster times (`ramp.rs`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RampEvidence {
+    /// The rate random walk K fitted in the ramp's place, °/h/√h.
+    pub rrw_dph_per_rt_h: f64,
+    /// −2 ln of the likelihood ratio, rate random walk over the ramp, each model at its own
+    /// fitted noise (positive: the ramp fits better).
+    pub statistic: f64,
+    /// Share of replicates of the rate-random-walk model whose statistic is at least as
+    /// large: the p-value of "slow noise, no drift". The ramp is preferred only when it is
+    /// at most α.
+    pub p_under_rrw: f64,
+    /// Share of replicates of the ramp model (its noise plus its fitted ramp) whose
+    /// statistic is at most as large; the ramp is preferred only when this is larger.
+    pub p_under_ramp: f64,
 }
 
 /// The best single step of the bias, where it beat a slow function of time.

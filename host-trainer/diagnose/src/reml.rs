@@ -5,8 +5,9 @@
 //! the IEEE Std 952 model, each free and ≥ 0, fitted together by restricted maximum
 //! likelihood (REML) on the block means with the baseline as fixed effects ([`reml_noise`]);
 //! the search fits white + B first and adds K only when that model fails the Allan check
-//! below (K takes slow effects with it: always fitted, it absorbed a D = 7 aging and a
-//! D = 6.5 warm-up of the matched benchmark):
+//! below and a rate ramp beside the model does not explain the failure better (`ramp.rs`;
+//! K takes slow effects with it: always fitted, it absorbed a D = 7 aging and a D = 6.5
+//! warm-up of the matched benchmark):
 //! - white: every process faster than a block (angle random walk, angle quantisation,
 //!   heavy-tailed white noise, correlated noise of seconds) is white at 100 s; its level is
 //!   the block means' own, not the 1 Hz Allan variance's (quantisation inflates that: on a

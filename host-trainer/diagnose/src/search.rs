@@ -15,6 +15,7 @@ use super::noise::{
     GlsWhitener, Whitener, GLS_MAX_BLOCKS,
 };
 use super::prepare::{model_drive, PhysicsModel, Prepared};
+use super::ramp::ramp_instead_of_rrw;
 use super::refine::{argmin, refine};
 use super::reml::{allan_check, block_mean_cov, reml_noise, AllanCheck};
 use super::scan::{generic_columns, scan, Point, Scan};
@@ -175,19 +176,58 @@ pub(crate) fn run(
         let c = check(&g);
         (g, c)
     });
+    // Set when a rate ramp is preferred to rate random walk: every finding then rests on
+    // that choice too, and the verdict's p-value is at least its p-value.
+    let mut ramp_found: Option<super::RampEvidence> = None;
     let (gyro, noise_check) = match fitted {
         Some((g, c)) if c.as_ref().is_none_or(AllanCheck::fits) => (g, c),
         Some((g, c)) => match reml_noise(&base_b, &prep.y_b, prep.block, prep.dt_s, true) {
             Some(g1) => {
-                notes.push(format!(
-                    "the residual's Allan deviation departs from white noise and bias \
-                     instability (p = {:.3}): rate random walk added to the noise model \
-                     (K = {:.2e} °/h/√h)",
-                    c.as_ref().map_or(f64::NAN, |c| c.p_value),
-                    g1.rrw_dph_per_rt_h
-                ));
-                let c1 = check(&g1);
-                (g1, c1)
+                let p_wb = c.as_ref().map_or(f64::NAN, |c| c.p_value);
+                let ramp = points
+                    .iter()
+                    .find(|p| p.family == Family::Aging)
+                    .and_then(|p| p.cols_b.first())
+                    .and_then(|r| {
+                        ramp_instead_of_rrw(
+                            &base_b,
+                            r,
+                            &prep.y_b,
+                            &g1,
+                            prep.block,
+                            prep.dt_s,
+                            opts.bootstrap,
+                            opts.seed,
+                            opts.alpha,
+                        )
+                    });
+                if let Some(r) = ramp {
+                    ramp_found = Some(super::RampEvidence {
+                        rrw_dph_per_rt_h: g1.rrw_dph_per_rt_h,
+                        statistic: r.statistic,
+                        p_under_rrw: r.p_rrw,
+                        p_under_ramp: r.p_ramp,
+                    });
+                    notes.push(format!(
+                        "the residual's Allan deviation departs from white noise and bias \
+                         instability (p = {p_wb:.3}); a rate ramp explains the departure \
+                         better than rate random walk (K = {:.2e} °/h/√h; the record's \
+                         likelihood ratio has probability {:.3} under rate random walk and \
+                         {:.3} under the ramp): the noise model is white + B fitted beside a \
+                         ramp, and aging is tested against it",
+                        g1.rrw_dph_per_rt_h, r.p_rrw, r.p_ramp
+                    ));
+                    (r.gyro, r.check)
+                } else {
+                    notes.push(format!(
+                        "the residual's Allan deviation departs from white noise and bias \
+                         instability (p = {p_wb:.3}): rate random walk added to the noise \
+                         model (K = {:.2e} °/h/√h)",
+                        g1.rrw_dph_per_rt_h
+                    ));
+                    let c1 = check(&g1);
+                    (g1, c1)
+                }
             }
             None => (g, c),
         },
@@ -238,10 +278,16 @@ pub(crate) fn run(
     let thr = |_: Family| thr_all;
     // The generic test's second null, under rate random walk (see `structure_under_rrw`).
     let struct_p1 = nulls.structure.p_value(s.gen_dbic);
-    let struct_p_rrw = (first && gyro.rrw_dph_per_rt_h == 0.0 && struct_p1 <= STRUCTURE_RRW_BELOW)
+    let struct_p_rrw = (first
+        && gyro.rrw_dph_per_rt_h == 0.0
+        && ramp_found.is_none()
+        && struct_p1 <= STRUCTURE_RRW_BELOW)
         .then(|| structure_under_rrw(prep, &base_b, &generic, opts))
         .flatten();
-    let structure_p = struct_p_rrw.map_or(struct_p1, |q| struct_p1.max(q));
+    // With a rate ramp preferred to rate random walk, every p-value rests on that choice.
+    let ramp_p = ramp_found.as_ref().map(|r| r.p_under_rrw);
+    let floor = |p: f64| ramp_p.map_or(p, |q| p.max(q));
+    let structure_p = floor(struct_p_rrw.map_or(struct_p1, |q| struct_p1.max(q)));
 
     // Best point of each family, most significant first.
     let mut best: Vec<(Family, usize)> = families
@@ -338,7 +384,7 @@ pub(crate) fn run(
             }
             sig_counted |= separable;
             if separable {
-                p_counted = p_counted.min(nulls.best.p_value(s.dbic[i]));
+                p_counted = p_counted.min(floor(nulls.best.p_value(s.dbic[i])));
             }
             // The cycle-by-cycle gain is required only where the noise model is not trusted:
             // with two cycles each is predicted from one, and at D 5–6 on the matched
@@ -381,7 +427,7 @@ pub(crate) fn run(
             mechanism: f.mechanism(),
             delta_bic: s.dbic[i],
             threshold: thr(f),
-            p_value: nulls.best.p_value(s.dbic[i]),
+            p_value: floor(nulls.best.p_value(s.dbic[i])),
             p_value_alone: nulls.family[f.index()].p_value(s.dbic[i]),
             heldout_gain: gain,
             cycle_gain,
@@ -492,12 +538,13 @@ pub(crate) fn run(
             ],
             noise_check,
             notes,
-            p_value: p_counted,
+            p_value: floor(p_counted),
             delta_bic_threshold: best.first().map_or(f64::NEG_INFINITY, |&(f, _)| thr(f)),
             structure_threshold: thr_gen,
             structure_delta_bic: s.gen_dbic,
             structure_p_value: structure_p,
             step: step_found,
+            rate_ramp: ramp_found,
             candidates: scores,
         },
         series: super::BlockSeries::default(),

@@ -408,3 +408,24 @@ fn prepared_from_an_owned_recording_equals_one_from_a_lent_one() {
     }
     assert_eq!(owned.full_drive.t_s, sim.recording.time_s);
 }
+
+/// A strong aging in the simulator's own recording (0.02 °/h per day, twice the paper's
+/// noise's detectability needs): white noise and bias instability fail the Allan check, and
+/// rate random walk fitted in their place took the drift (`consistent`, "not separable").
+/// The ramp is preferred to it and aging is the finding, its rate within 25 %.
+#[test]
+fn strong_aging_is_not_rate_random_walk() {
+    for seed in [14, 15] {
+        let d = run(
+            vec![Term::Aging {
+                rate_dph_per_day: 0.02,
+            }],
+            seed,
+        );
+        assert!(d.evidence.rate_ramp.is_some(), "{:#?}", d.evidence);
+        assert_eq!(d.verdict, Verdict::MissingPhysics, "{:#?}", d.evidence);
+        assert_eq!(d.findings[0].mechanism, Mechanism::Aging);
+        let rate = d.findings[0].parameters["rate_dph_per_day"];
+        assert!((rate / 0.02 - 1.0).abs() < 0.25, "seed {seed}: rate {rate}");
+    }
+}
