@@ -96,11 +96,12 @@ pub(crate) fn ramp_instead_of_rrw(
     let k_model = Fixed::new(rrw, base_b, block, dt_s)?;
     let r_model = Fixed::new(&ramp_noise, &with_ramp, block, dt_s)?;
     let stat = |y: &[f64]| -> Option<f64> { Some(k_model.fit(y)?.0 - r_model.fit(y)?.0) };
-    let t_obs = stat(y_b)?;
+    let (r_obs, r_coef) = r_model.fit(y_b)?;
+    let t_obs = k_model.fit(y_b)?.0 - r_obs;
     if t_obs <= 0.0 {
         return None;
     }
-    let slope = *r_model.fit(y_b)?.1.last()?;
+    let slope = *r_coef.last()?;
     let reps = reps.max(1);
     let draw = |p: &NoiseParams, salt: u64, ramp: f64| -> Vec<f64> {
         (0..reps)
