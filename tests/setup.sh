@@ -5,6 +5,22 @@
 set -euo pipefail
 
 cd "$(dirname "$0")/.."
+# /dev/null must be the null device. Found as a regular file on one machine: everything
+# written to it (setup's own output, build scripts' probes) was read back as source by the
+# `rustc -` query cargo makes to learn the target, and the board build stopped with "failed
+# to run `rustc` to learn about target-specific information". Restored here when we may.
+if [ ! -c /dev/null ]; then
+    if [ "$(id -u)" -eq 0 ]; then
+        echo "setup: /dev/null is not the null device (a $(stat -c %F /dev/null)): restoring it"
+        rm -f /dev/null
+        mknod -m 666 /dev/null c 1 3
+    else
+        echo "setup: /dev/null is not the null device (a $(stat -c %F /dev/null)); cargo's" \
+            "target query reads it as source. Restore it as root: rm -f /dev/null &&" \
+            "mknod -m 666 /dev/null c 1 3" >&2
+        exit 1
+    fi
+fi
 # The board targets (Cortex-M4F, and Cortex-M3 for the FPU-less build of the core) and the
 # lint tools; rust-toolchain.toml names them too, but an already installed toolchain is not
 # always completed from it.
