@@ -20,7 +20,10 @@
 //!    Where the noise model fails its check, a finding also needs evidence that does not
 //!    rest on it (each temperature cycle predicted from the others; a slow function of time
 //!    alone is reported as inseparable slow drift), and a finding must leave no generic
-//!    structure behind, else the verdict is `unexplained_structure`.
+//!    structure behind, else the verdict is `unexplained_structure`. Where it passes, a slow
+//!    function of time alone (aging, warm-up, a period of an eighth of the record or more,
+//!    or the single step preferred to one) must also be significant under the record's
+//!    noise refitted with rate random walk, else it too is inseparable slow drift.
 //! 5. Verdict, located spans, before/after held-out figures and a plain-words explanation.
 //!
 //! The diagnosis reads only the recording and the model, never a truth sidecar.
@@ -221,7 +224,9 @@ pub struct Evidence {
     /// p-value of the verdict: the smallest false-alarm probability α at which it would
     /// not be `consistent` (the smaller of the generic structure test's p-value and those of
     /// the significant candidates that count; a candidate not separable from slow noise does
-    /// not), and never below [`RampEvidence::p_under_rrw`] when a rate ramp was preferred to
+    /// not, nor does a slow function of time not significant under rate random walk, and
+    /// one that is counts with the larger of its two p-values), and never below
+    /// [`RampEvidence::p_under_rrw`] when a rate ramp was preferred to
     /// rate random walk (every test then rests on that choice; so do the candidates' and
     /// the structure test's p-values). On recordings with nothing missing the share with
     /// `p_value` ≤ α is the false-alarm rate at α.
@@ -309,7 +314,9 @@ pub struct CandidateScore {
     pub threshold: f64,
     /// Bootstrap p-value of its ΔBIC against the null distribution of the best ΔBIC over
     /// all families and grid points (look-elsewhere included): it is significant exactly
-    /// when this is at most α (up to the bootstrap's resolution, 1/(replicates + 1)).
+    /// when this is at most α (up to the bootstrap's resolution, 1/(replicates + 1)). For a
+    /// slow function of time alone tested again under rate random walk, the larger of the
+    /// two p-values.
     #[serde(default)]
     pub p_value: f64,
     /// Its p-value had this family been the only one tested (against the null of the best
@@ -325,6 +332,13 @@ pub struct CandidateScore {
     /// cycles (else None); such a finding needs it positive.
     #[serde(default)]
     pub cycle_gain: Option<f64>,
+    /// For a significant slow function of time alone (aging, warm-up, a period of an eighth
+    /// of the record or more) where white + B passed the Allan check: its p-value under the
+    /// record's noise refitted with rate random walk (likelihood ratio against it, `ramp.rs`;
+    /// for the single step preferred to it, that step's). None where not run, or where
+    /// REML puts no rate random walk in.
+    #[serde(default)]
+    pub p_value_rrw: Option<f64>,
 }
 
 /// Diagnoses `rec` against `model`; a recording given by value is not copied.
