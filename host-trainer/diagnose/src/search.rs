@@ -73,7 +73,8 @@ impl ColumnCache {
 
 /// One pass of the search. `first`: the pass on the user's model; the later passes (after a
 /// finding) ask whether the findings account for the structure, and there the generic test
-/// keeps its one null (see `structure_under_rrw`).
+/// keeps its one null unless a slow function of time fails the slow-drift check (see
+/// `structure_under_rrw`).
 pub(crate) fn run(
     prep: &Prepared,
     model: &PhysicsModel,
@@ -278,16 +279,9 @@ pub(crate) fn run(
     let thr = |_: Family| thr_all;
     // The generic test's second null, under rate random walk (see `structure_under_rrw`).
     let struct_p1 = nulls.structure.p_value(s.gen_dbic);
-    let struct_p_rrw = (first
-        && gyro.rrw_dph_per_rt_h == 0.0
-        && ramp_found.is_none()
-        && struct_p1 <= STRUCTURE_RRW_BELOW)
-        .then(|| structure_under_rrw(prep, &base_b, &generic, opts))
-        .flatten();
     // With a rate ramp preferred to rate random walk, every p-value rests on that choice.
     let ramp_p = ramp_found.as_ref().map(|r| r.p_under_rrw);
     let floor = |p: f64| ramp_p.map_or(p, |q| p.max(q));
-    let structure_p = floor(struct_p_rrw.map_or(struct_p1, |q| struct_p1.max(q)));
 
     // Best point of each family, most significant first.
     let mut best: Vec<(Family, usize)> = families
@@ -317,7 +311,7 @@ pub(crate) fn run(
     // Whether a significant family counts towards `unexplained_structure`.
     let mut sig_counted = false;
     // The smallest α at which the verdict would not be `consistent` (see `Evidence`).
-    let mut p_counted = structure_p;
+    let mut p_counted: f64 = 1.0;
     // The step columns, made when aging or a periodic term first needs them.
     let mut step = None;
     let mut step_found = None;
@@ -540,6 +534,17 @@ pub(crate) fn run(
     let mask: Vec<bool> = ma.iter().map(|v| v.abs() > LOCATE_Z * sigma_ma).collect();
     let located = spans(prep, &mask, 2, &resid_b);
 
+    // On a later pass the generic test keeps its one null, unless a slow function of time
+    // has just failed the slow-drift check: the drift it saw is then in the time chunks
+    // too, and under white + B alone it passed as structure the findings leave behind.
+    let struct_p_rrw = ((first || !slow_drift.is_empty())
+        && gyro.rrw_dph_per_rt_h == 0.0
+        && ramp_found.is_none()
+        && struct_p1 <= STRUCTURE_RRW_BELOW)
+        .then(|| structure_under_rrw(prep, &base_b, &generic, opts))
+        .flatten();
+    let structure_p = floor(struct_p_rrw.map_or(struct_p1, |q| struct_p1.max(q)));
+    p_counted = p_counted.min(structure_p);
     let any_sig = sig_counted || (s.gen_dbic < thr_gen && structure_p <= opts.alpha);
     if let Some(q) = struct_p_rrw.filter(|q| struct_p1 <= opts.alpha && *q > opts.alpha) {
         notes.push(format!(
