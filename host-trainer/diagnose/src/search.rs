@@ -648,7 +648,7 @@ const SLOW_PERIOD_OF_RECORD: f64 = 1.0 / 8.0;
 /// wander of correlation times of days is a drift, and the Allan check, on the few
 /// independent long-τ clusters a record holds, does not reject white + B for it. Measured on
 /// the clean mismatched recordings of design seeds 1 and 3, flagged at α 1 / 2 / 5 / 10 %:
-/// 3 / 4 / 11 / 13 → 3 / 4 / 8 / 12 and 4 / 6 / 11 / 15 → 2 / 3 / 6 / 13 of 60. Warm-up is
+/// 3 / 4 / 11 / 13 → 3 / 4 / 9 / 13 and 4 / 6 / 11 / 15 → 3 / 4 / 7 / 13 of 60. Warm-up is
 /// among them because, left out, it took two agings that failed the check on the matched
 /// design seed.
 fn slow_time_only(f: Family, nl: &[f64], record_s: f64) -> bool {
