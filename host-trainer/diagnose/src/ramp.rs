@@ -91,13 +91,10 @@ struct Versus<'a> {
     /// The record's statistic, and the fitted coefficients of `extra`.
     t_obs: f64,
     coef: Vec<f64>,
-    nb: usize,
-    block_s: f64,
-    reps: usize,
-    seed: u64,
+    replicates: Replicates,
 }
 
-/// Parametric bootstrap replicates of block means.
+/// Parametric bootstrap replicates of block means, on this test's stream of the seed.
 struct Replicates {
     nb: usize,
     block_s: f64,
@@ -106,12 +103,24 @@ struct Replicates {
 }
 
 impl Replicates {
-    /// `stat` of each replicate of `p`'s noise (given mutably, to add an effect to).
+    fn new(nb: usize, block: usize, dt_s: f64, reps: usize, seed: u64) -> Self {
+        Self {
+            nb,
+            block_s: block as f64 * dt_s,
+            reps: reps.max(1),
+            seed: seed ^ RAMP_SEED,
+        }
+    }
+
+    /// `stat` of each replicate of `p`'s noise (given mutably, to add an effect to); `salt`
+    /// picks the stream.
     fn stats(
         &self,
         p: &NoiseParams,
+        salt: u64,
         stat: impl Fn(&mut Vec<f64>) -> Option<f64> + Sync,
     ) -> Vec<f64> {
+        let s = self.seed ^ salt;
         (0..self.reps)
             .into_par_iter()
             .filter_map(|k| {
@@ -119,13 +128,19 @@ impl Replicates {
                     p,
                     self.nb,
                     self.block_s,
-                    &mut replicate_rng(self.seed, k as u64),
-                    self.seed.wrapping_add(k as u64 + 1),
+                    &mut replicate_rng(s, k as u64),
+                    s.wrapping_add(k as u64 + 1),
                 );
                 stat(&mut y)
             })
             .collect()
     }
+}
+
+/// The bootstrap p-value: the share of replicates `v` as extreme as the record, counting
+/// the record itself.
+fn share(v: &[f64], extreme: impl Fn(f64) -> bool) -> f64 {
+    (1 + v.iter().filter(|t| extreme(**t)).count()) as f64 / (v.len() + 1) as f64
 }
 
 impl<'a> Versus<'a> {
@@ -156,10 +171,7 @@ impl<'a> Versus<'a> {
             extra,
             t_obs,
             coef,
-            nb: y_b.len(),
-            block_s: block as f64 * dt_s,
-            reps: reps.max(1),
-            seed,
+            replicates: Replicates::new(y_b.len(), block, dt_s, reps, seed),
         })
     }
 
@@ -169,22 +181,12 @@ impl<'a> Versus<'a> {
 
     /// The statistic on `reps` replicates of `p`'s noise plus `coef` times the extra columns.
     fn draw(&self, p: &NoiseParams, salt: u64, coef: Option<&[f64]>) -> Vec<f64> {
-        let r = Replicates {
-            nb: self.nb,
-            block_s: self.block_s,
-            reps: self.reps,
-            seed: self.seed ^ RAMP_SEED ^ salt,
-        };
-        r.stats(p, |y| {
+        self.replicates.stats(p, salt, |y| {
             for (c, col) in coef.unwrap_or(&[]).iter().zip(self.extra) {
                 y.iter_mut().zip(col).for_each(|(a, r)| *a += c * r);
             }
             self.stat(y)
         })
-    }
-
-    fn share(v: &[f64], extreme: impl Fn(f64) -> bool) -> f64 {
-        (1 + v.iter().filter(|t| extreme(**t)).count()) as f64 / (v.len() + 1) as f64
     }
 
     /// Share of rate-random-walk replicates whose statistic favours the columns as much as
@@ -193,14 +195,14 @@ impl<'a> Versus<'a> {
         if self.t_obs <= 0.0 {
             return 1.0;
         }
-        Self::share(&self.draw(self.rrw, 1, None), |t| t >= self.t_obs)
+        share(&self.draw(self.rrw, 1, None), |t| t >= self.t_obs)
     }
 
     /// Share of replicates of the columns' model (its noise plus its fitted effect) whose
     /// statistic favours rate random walk as much as the record's.
     fn p_extra(&self) -> f64 {
         let t = self.t_obs;
-        Self::share(&self.draw(&self.extra_noise, 2, Some(&self.coef)), |x| {
+        share(&self.draw(&self.extra_noise, 2, Some(&self.coef)), |x| {
             x <= t
         })
     }
@@ -303,14 +305,8 @@ pub(crate) fn step_p_under_rrw(
     if t_obs <= 0.0 {
         return Some(1.0);
     }
-    let r = Replicates {
-        nb,
-        block_s: block as f64 * dt_s,
-        reps: reps.max(1),
-        seed: seed ^ RAMP_SEED ^ 3,
-    };
-    let v = r.stats(rrw, |y| stat(y));
-    Some(Versus::share(&v, |t| t >= t_obs))
+    let v = Replicates::new(nb, block, dt_s, reps, seed).stats(rrw, 3, |y| stat(y));
+    Some(share(&v, |t| t >= t_obs))
 }
 
 /// The p-value of a slow time-only effect (block columns `extra`) under the record's own
