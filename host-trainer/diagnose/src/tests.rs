@@ -429,3 +429,52 @@ fn strong_aging_is_not_rate_random_walk() {
         assert!((rate / 0.02 - 1.0).abs() < 0.25, "seed {seed}: rate {rate}");
     }
 }
+
+/// A clean recording with logger dropouts (gaps of 15–50 min, on ramps and in holds) is
+/// `consistent`, against the paper's model and against its own terms (which de-quantise
+/// the reading): the temperature's slope, dT/dt and its de-quantised reconstruction are
+/// taken within each run between gaps, never across one.
+#[test]
+fn gaps_in_a_clean_recording_are_not_physics() {
+    let sc = scenario(vec![], 1.0);
+    let mut rec = simulate(&sc, 11).expect("simulates").recording;
+    let keep: Vec<bool> = rec
+        .time_s
+        .iter()
+        .map(|&t| {
+            ![
+                (9_000.0, 11_000.0),
+                (13_500.0, 16_500.0),
+                (22_000.0, 23_000.0),
+            ]
+            .iter()
+            .any(|&(a, b)| t >= a && t < b)
+        })
+        .collect();
+    let pick = |v: &[f64]| -> Vec<f64> {
+        v.iter()
+            .zip(&keep)
+            .filter(|(_, k)| **k)
+            .map(|(x, _)| *x)
+            .collect()
+    };
+    rec.time_s = pick(&rec.time_s);
+    rec.rate_dph = pick(&rec.rate_dph);
+    rec.temp_c = pick(&rec.temp_c);
+    rec.chamber_c = rec.chamber_c.as_deref().map(pick);
+    rec.extra.clear();
+    let own = PhysicsModel {
+        name: "own".into(),
+        terms: sc.terms.clone(),
+    };
+    for model in [PhysicsModel::paper(), own] {
+        let d = diagnose(&rec, &model, &Options::default()).expect("diagnoses");
+        assert_eq!(
+            d.verdict,
+            Verdict::Consistent,
+            "{}: {:#?}",
+            model.name,
+            d.evidence
+        );
+    }
+}
