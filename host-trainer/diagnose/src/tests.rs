@@ -478,3 +478,41 @@ fn gaps_in_a_clean_recording_are_not_physics() {
         );
     }
 }
+
+/// Sensor faults in a clean recording (three one-sample glitches of +30 °C, a reading frozen
+/// for 20 min on a ramp, an open-circuit reading of 150 °C) are dropped by the board's rules
+/// and named in a note; the verdict stays `consistent`.
+#[test]
+fn sensor_faults_in_a_clean_recording_are_dropped_and_named() {
+    let sc = scenario(vec![], 1.0);
+    let mut rec = simulate(&sc, 11).expect("simulates").recording;
+    for i in [4_000, 12_000, 27_000] {
+        rec.temp_c[i] += 30.0;
+    }
+    rec.temp_c[20_000] = 150.0;
+    // The first ramp starts after the 1.5 h hold; frozen 20 min into it.
+    let t0 = 5_400 + 600;
+    let held = rec.temp_c[t0];
+    for x in &mut rec.temp_c[t0..t0 + 1_200] {
+        *x = held;
+    }
+    let d = diagnose(&rec, &PhysicsModel::paper(), &Options::default()).expect("diagnoses");
+    assert_eq!(d.verdict, Verdict::Consistent, "{:#?}", d.evidence);
+    let note = d
+        .evidence
+        .notes
+        .iter()
+        .find(|n| n.contains("sensor rules"))
+        .expect("a note names the faults");
+    // The frozen span is 1 200 samples; its first is a real reading, and the code before it
+    // may already be the held one.
+    let frozen: usize = note
+        .split([',', ';'])
+        .find_map(|p| p.trim().strip_suffix(" frozen on a moving body"))
+        .and_then(|v| v.parse().ok())
+        .expect("frozen count");
+    assert!(
+        note.contains("1 out of range") && (1199..=1205).contains(&frozen),
+        "{note}"
+    );
+}

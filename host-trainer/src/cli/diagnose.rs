@@ -113,6 +113,9 @@ pub fn run(args: &DiagnoseArgs) -> anyhow::Result<()> {
     for f in &d.findings {
         println!("{}", f.explanation);
     }
+    for n in &d.evidence.notes {
+        println!("note: {n}");
+    }
     if let Some(p) = &args.json {
         let text = serde_json::to_string_pretty(&d)?;
         rlg_io::recording::write_atomic(p, text.as_bytes())?;
