@@ -38,6 +38,7 @@ use rlg_eval::metrics::allan::{octave_clusters, overlapping_adev_ci, AdevCi, CON
 use rlg_eval::metrics::compare::improvement_factor;
 use rlg_eval::metrics::stability::{bias_stability_gapless_dph, gapless_block_means, rms};
 use rlg_io::cycles::cycle_spans;
+use rlg_io::faults::{sensor_faults, FaultLimits, SensorFaults};
 use rlg_io::recording::Recording;
 use rlg_train::dataset::{self, Dataset, RecordingSelection};
 use rlg_train::export;
@@ -340,6 +341,22 @@ pub fn check_stream(rec: &Recording, what: &str) -> anyhow::Result<f64> {
          1 Hz first with `rlg resample --period-s 1`"
     );
     Ok(dt)
+}
+
+/// The recording without the temperature samples the board's sensor rules reject
+/// ([`rlg_io::faults::sensor_faults`]); they become gaps, which the features bridge as the
+/// board does. A glitch left in would reach the dT/dt model (and the cycle split: a +30 °C
+/// sample made a one-cycle record of a two-cycle one).
+fn without_sensor_faults(
+    rec: std::borrow::Cow<'_, Recording>,
+    dt: f64,
+) -> (std::borrow::Cow<'_, Recording>, SensorFaults) {
+    let (bad, f) = sensor_faults(&rec.time_s, &rec.temp_c, dt, &FaultLimits::BOARD);
+    if f.total() == 0 {
+        (rec, f)
+    } else {
+        (std::borrow::Cow::Owned(rec.without(&bad)), f)
+    }
 }
 
 fn features_of(rec: &Recording, tau: f64, dt: f64) -> anyhow::Result<FeatureSeries> {
@@ -744,12 +761,16 @@ pub fn calibrate(
     opts.validate()?;
     let cal = window_of(cal, opts.from_s, opts.to_s)?;
     let dt = check_stream(&cal, "the calibration recording")?;
+    let (cal, cal_faults) = without_sensor_faults(cal, dt);
     let series = features_of(&cal, opts.rate_tau_s, dt)?;
     let cycles = cycle_spans(&cal.time_s, &cal.temp_c);
     let k = cycles.len();
     let t0 = cal.time_s[0];
     let t_end = *cal.time_s.last().unwrap_or(&t0);
     let mut notes = Vec::new();
+    if cal_faults.total() > 0 {
+        notes.push(format!("Calibration recording: {}.", cal_faults.describe()));
+    }
 
     // The split.
     let (held_out, train_end) = match test {
@@ -964,11 +985,17 @@ pub fn calibrate(
 
     // The held-out stream.
     let test_series;
+    let test_clean;
     let (stream, stream_series, start): (&Recording, &FeatureSeries, usize) = match test {
         Some(t) => {
             let dt_t = check_stream(t, "the test recording")?;
-            test_series = features_of(t, opts.rate_tau_s, dt_t)?;
-            (t, &test_series, 0)
+            let (t, f) = without_sensor_faults(std::borrow::Cow::Borrowed(t), dt_t);
+            if f.total() > 0 {
+                notes.push(format!("Test recording: {}.", f.describe()));
+            }
+            test_clean = t;
+            test_series = features_of(&test_clean, opts.rate_tau_s, dt_t)?;
+            (&*test_clean, &test_series, 0)
         }
         None => {
             // The reproduction's rule: samples from the cycle boundary on are held out.

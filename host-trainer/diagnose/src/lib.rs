@@ -350,19 +350,8 @@ pub fn diagnose<'a>(
     let prep = prepare::prepare(rec)?;
     let cache = search::ColumnCache::default();
     let mut d = search::run(&prep, model, opts, &cache, true)?;
-    let f = &prep.faults;
-    if f.total() > 0 {
-        d.evidence.notes.push(format!(
-            "{} temperature sample(s) rejected by the board's sensor rules and dropped as gaps: \
-             {} out of range, {} glitch(es) beyond {} °C per sample, {} frozen on a moving body; \
-             the first at {:.0} s",
-            f.total(),
-            f.out_of_range,
-            f.spikes,
-            compensator_core::SensorLimits::DEFAULT.max_temp_step_c,
-            f.frozen,
-            f.first_s.unwrap_or(f64::NAN)
-        ));
+    if prep.faults.total() > 0 {
+        d.evidence.notes.push(prep.faults.describe());
     }
     // Further findings: the term found is added to the model (its amplitude refitted with
     // the baseline, its non-linear parameter kept) and the search runs again on what is

@@ -11,8 +11,8 @@ use serde::{Deserialize, Serialize};
 
 use super::DiagnoseError;
 use compensator_core::physics::lead;
-use compensator_core::SensorLimits;
 use rlg_eval::metrics::block_means;
+use rlg_io::faults::{sensor_faults, FaultLimits, SensorFaults};
 use rlg_io::recording::Recording;
 use rlg_physics::{contribution, Mechanism, Role, Term};
 
@@ -376,148 +376,6 @@ fn sample_period(time_s: &[f64]) -> f64 {
     }
 }
 
-/// The recording without the samples marked in `drop`.
-fn keep_samples(rec: &Recording, drop: &[bool]) -> Recording {
-    let keep = |v: &[f64]| -> Vec<f64> {
-        v.iter()
-            .zip(drop)
-            .filter(|(_, d)| !**d)
-            .map(|(x, _)| *x)
-            .collect()
-    };
-    Recording {
-        time_s: keep(&rec.time_s),
-        rate_dph: keep(&rec.rate_dph),
-        temp_c: keep(&rec.temp_c),
-        chamber_c: rec.chamber_c.as_deref().map(keep),
-        extra: Vec::new(),
-        comments: rec.comments.clone(),
-    }
-}
-
-/// Temperature samples that the board's own sensor rules (`compensator_core::Compensator`,
-/// rules 3 and 4, with [`SensorLimits::DEFAULT`]) would not take as a reading of the body.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct SensorFaults {
-    /// Outside the plausible range (an open or shorted sensor).
-    pub out_of_range: usize,
-    /// Away from the last good reading by more than the largest plausible step (a glitch).
-    pub spikes: usize,
-    /// Repeats of one frozen reading where the body was moving when it froze.
-    pub frozen: usize,
-    /// Time of the first, s.
-    pub first_s: Option<f64>,
-}
-
-impl SensorFaults {
-    /// All the samples rejected.
-    pub fn total(&self) -> usize {
-        self.out_of_range + self.spikes + self.frozen
-    }
-}
-
-/// Marks the temperature samples the board would reject, offline (the whole record is
-/// known, so a frozen span is marked from its start, not from its 300th repeat):
-/// - out of `[temp_min_c, temp_max_c]`;
-/// - more than `max_temp_step_c` from the last good reading (more across a gap, in
-///   proportion to the time missing, so that a gap's change is not a glitch), unless
-///   `max_skipped` such samples in a row agree with each other: then the reading really
-///   moved (a re-seated sensor, the end of a frozen span), and they are taken back;
-/// - bit-identical repeats lasting `stuck_samples` periods or more where the readings before
-///   the span had the body moving fast enough to change by `stuck_min_change_c` in that time
-///   (a settled hold reads one code for hours and is never marked).
-///
-/// A glitch of +30 °C in one sample otherwise reaches the rate terms through dT/dt (its
-/// centred difference puts ±0.5 °C/s into two samples); a sensor frozen on a ramp reads as
-/// a lag. Both made a clean record `unexplained_structure`. `dt_s` is the sample period.
-pub fn sensor_faults(time_s: &[f64], temp_c: &[f64], dt_s: f64) -> (Vec<bool>, SensorFaults) {
-    let l = SensorLimits::DEFAULT;
-    let n = temp_c.len().min(time_s.len());
-    let mut bad = vec![false; n];
-    let mut f = SensorFaults::default();
-    let (lo, hi) = (f64::from(l.temp_min_c), f64::from(l.temp_max_c));
-    let step = f64::from(l.max_temp_step_c);
-    // The last good reading: (index, time, value).
-    let mut last: Option<(usize, f64, f64)> = None;
-    let mut rejected: Vec<usize> = Vec::new();
-    for i in 0..n {
-        let (t, x) = (time_s[i], temp_c[i]);
-        if !(x >= lo && x <= hi) {
-            bad[i] = true;
-            f.out_of_range += 1;
-            continue;
-        }
-        // The limit grows with time missing since the last good reading (a gap), not with
-        // the rejected samples in between: a glitch stays a glitch however long it lasts.
-        let ok = last.is_none_or(|(k0, t0, x0)| {
-            let missing = (t - t0) - (i - k0 - 1) as f64 * dt_s;
-            (x - x0).abs() <= step * (missing / dt_s).max(1.0)
-        });
-        if ok {
-            rejected.clear();
-            last = Some((i, t, x));
-            continue;
-        }
-        // A new level that holds for `max_skipped` samples is the reading, not a glitch.
-        if rejected
-            .last()
-            .is_some_and(|&j| (x - temp_c[j]).abs() > step * ((t - time_s[j]) / dt_s).max(1.0))
-        {
-            rejected.clear();
-        }
-        rejected.push(i);
-        bad[i] = true;
-        if rejected.len() >= l.max_skipped as usize {
-            for &j in &rejected {
-                bad[j] = false;
-            }
-            rejected.clear();
-            last = Some((i, t, x));
-        }
-    }
-    f.spikes = bad.iter().filter(|b| **b).count() - f.out_of_range;
-    // Frozen spans: runs of one bit-identical good reading.
-    let span_s = f64::from(l.stuck_samples) * dt_s;
-    let mut i = 0;
-    while i < n {
-        if bad[i] {
-            i += 1;
-            continue;
-        }
-        let mut j = i;
-        while j + 1 < n && !bad[j + 1] && temp_c[j + 1].to_bits() == temp_c[i].to_bits() {
-            j += 1;
-        }
-        if time_s[j] - time_s[i] >= span_s {
-            // The body's rate when the reading froze: the good readings' changes over the
-            // last minute, a step beyond the per-sample limit left out (a re-seated sensor,
-            // not a moving body).
-            let mut k0 = i;
-            let mut moved = 0.0;
-            while k0 > 0 && time_s[i] - time_s[k0] < 60.0 {
-                let d = temp_c[k0] - temp_c[k0 - 1];
-                let limit = step * ((time_s[k0] - time_s[k0 - 1]) / dt_s).max(1.0);
-                if !bad[k0] && !bad[k0 - 1] && d.abs() <= limit {
-                    moved += d;
-                }
-                k0 -= 1;
-            }
-            if k0 < i {
-                let rate = moved / (time_s[i] - time_s[k0]);
-                if rate.abs() * span_s >= f64::from(l.stuck_min_change_c) {
-                    for b in &mut bad[i + 1..=j] {
-                        *b = true;
-                    }
-                    f.frozen += j - i;
-                }
-            }
-        }
-        i = j + 1;
-    }
-    f.first_s = bad.iter().position(|b| *b).map(|i| time_s[i]);
-    (bad, f)
-}
-
 /// The recording prepared for fitting.
 #[derive(Clone, Debug)]
 pub struct Prepared {
@@ -541,7 +399,8 @@ pub struct Prepared {
     pub temp_b: Vec<f64>,
     /// °C/s.
     pub dtemp_b: Vec<f64>,
-    /// Temperature samples dropped as sensor faults before anything else ([`sensor_faults`]).
+    /// Temperature samples dropped as sensor faults before anything else
+    /// ([`rlg_io::faults::sensor_faults`]).
     pub faults: SensorFaults,
 }
 
@@ -641,10 +500,15 @@ pub fn prepare<'a>(rec: impl Into<Cow<'a, Recording>>) -> Result<Prepared, Diagn
             min: MIN_BLOCKS,
         });
     }
-    let (bad, faults) = sensor_faults(&rec.time_s, &rec.temp_c, sample_period(&rec.time_s));
+    let (bad, faults) = sensor_faults(
+        &rec.time_s,
+        &rec.temp_c,
+        sample_period(&rec.time_s),
+        &FaultLimits::BOARD,
+    );
     if faults.total() > 0 {
         // Dropped, so that they become gaps, which every step bridges.
-        rec = Cow::Owned(keep_samples(&rec, &bad));
+        rec = Cow::Owned(rec.without(&bad));
     }
     let n = rec.len();
     if n < 3 {
@@ -914,53 +778,6 @@ mod tests {
         // the curvature: for this parabola by 2e-4·(window centre − t).
         assert!((s[0] - (0.02 + 2e-4 * 0.5 * (h as f64) * dt)).abs() < 1e-9);
         assert_eq!(local_slope(&[5.0], &[0.0], 1.0, 45.0), vec![0.0]);
-    }
-
-    /// The board's sensor rules, offline: a glitch and an open-circuit reading are marked, a
-    /// frozen reading on a ramp is marked from its second sample, a settled hold's long run
-    /// of one code is not, nor is a gap's change, and a new level held for `max_skipped`
-    /// samples is taken as the reading.
-    #[test]
-    fn sensor_faults_follow_the_boards_rules() {
-        let t: Vec<f64> = (0..4000).map(f64::from).collect();
-        // 1 °C/min ramp for 1 000 s, then the body settles (τ 150 s) and the 0.01 °C reading
-        // keeps one code for its last minutes.
-        let mut x: Vec<f64> = t
-            .iter()
-            .map(|&t| {
-                let body = if t < 1000.0 {
-                    20.0 + t / 60.0
-                } else {
-                    20.0 + 1000.0 / 60.0 + 10.0 * (1.0 - (-(t - 1000.0) / 150.0).exp())
-                };
-                (body * 100.0).round() / 100.0
-            })
-            .collect();
-        x[300] += 25.0;
-        x[310] = 150.0;
-        let frozen = x[499];
-        for v in &mut x[500..900] {
-            *v = frozen;
-        }
-        // A real step of 5 °C held from 3 000 s on (a sensor re-seated).
-        for v in &mut x[3000..] {
-            *v += 5.0;
-        }
-        let (bad, f) = sensor_faults(&t, &x, 1.0);
-        assert_eq!((f.out_of_range, f.frozen), (1, 400));
-        assert!(bad[300] && bad[310] && bad[500] && bad[899] && !bad[499]);
-        // The settling body reads one code for minutes: never marked.
-        assert!(x[2000..3000].iter().filter(|v| **v == x[2999]).count() > 300);
-        assert!(!bad[1001..3000].iter().any(|b| *b));
-        // The new level is the reading after `max_skipped` samples (those taken back).
-        assert!(!bad[3000..].iter().any(|b| *b), "{f:?}");
-        // The jump back after the frozen span is a new level that holds: taken back.
-        assert_eq!(f.spikes, 1, "{f:?}");
-        assert!(!bad[900..1000].iter().any(|b| *b));
-        // Across a gap of 10 min a change of 10 °C is not a glitch.
-        let tg = vec![0.0, 1.0, 2.0, 602.0, 603.0];
-        let xg = vec![20.0, 20.0, 20.0, 30.0, 30.0];
-        assert_eq!(sensor_faults(&tg, &xg, 1.0).1.total(), 0);
     }
 
     /// Next to a gap the slope and dT/dt come from the samples on the same side only: on a
