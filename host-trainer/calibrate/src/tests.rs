@@ -208,6 +208,13 @@ fn temperature_glitches_are_dropped_and_named() {
         c.notes
     );
     assert!(!c0.notes.iter().any(|n| n.contains("sensor rules")));
-    let b = |c: &Calibration| c.row(LSSVM).unwrap().held_out.as_ref().unwrap().stability_dph;
+    let b = |c: &Calibration| {
+        c.row(LSSVM)
+            .unwrap()
+            .held_out
+            .as_ref()
+            .unwrap()
+            .stability_dph
+    };
     assert!(b(&c) < 1.2 * b(&c0), "{} vs {}", b(&c), b(&c0));
 }
