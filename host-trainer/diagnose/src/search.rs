@@ -23,7 +23,7 @@ use super::score::{
     cycle_folds, cycle_rss, delta_bic, heldout_metrics, nonlinear_of, warmup_heldout_gain, HeldOut,
     ModelColumns,
 };
-use super::variance::{output_quantum, VarianceTest};
+use super::variance::{output_quantum, VarianceTest, MIN_COUNT_SIGMA};
 use super::{
     CandidateScore, DiagnoseError, Diagnosis, Evidence, Figures, Finding, Options, Verdict,
 };
@@ -123,17 +123,36 @@ pub(crate) fn run(
             4.0 * block_s
         ));
     }
-    let quantum = output_quantum(&prep.rate_dph);
-    if let Some(q) = quantum {
-        notes.push(format!(
-            "the rate is quantised ({q:.4} °/h per sample, {:.4}″ counts): the noise-scale \
-             test is not run (the samples' variance then depends on the rate, not the noise)",
-            q * prep.dt_s
-        ));
-    }
-    let var = (families.contains(&Family::Heteroscedastic) && quantum.is_none())
+    let var = families
+        .contains(&Family::Heteroscedastic)
         .then(|| VarianceTest::new(prep))
         .flatten();
+    if let Some(q) = output_quantum(&prep.rate_dph) {
+        let counts = format!(
+            "the rate is an undithered count ({q:.4} °/h per sample, {:.4}″ counts)",
+            q * prep.dt_s
+        );
+        if var.is_some() {
+            notes.push(format!(
+                "{counts}: the noise-scale test takes out the count's own variance, which \
+                 follows where each block's mean rate falls between counts"
+            ));
+        } else if families.contains(&Family::Heteroscedastic) {
+            notes.push(format!(
+                "{counts} and its noise under {MIN_COUNT_SIGMA} counts: the noise-scale test \
+                 is not run (the noise's own share of the samples' variance is under a fifth; \
+                 the rest follows where the rate falls between counts)"
+            ));
+        }
+    }
+    if var.as_ref().is_some_and(VarianceTest::heavy_tailed) {
+        notes.push(
+            "the white noise is heavy-tailed (samples beyond 4 RMS of their block more than \
+             ten times as often as Gaussian noise): the noise-scale test compares the blocks' \
+             ½-power means of their deviations, not their variances"
+                .to_string(),
+        );
+    }
     let var_point = var.as_ref().map(|_| {
         points.push(Point {
             family: Family::Heteroscedastic,
