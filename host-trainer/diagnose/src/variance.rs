@@ -162,9 +162,9 @@ fn line_residuals(y: &[f64]) -> Vec<f64> {
 /// block's scaled to unit RMS (so that a scale changing from block to block is not taken for
 /// a tail), more than ten times the Gaussian share lie beyond 4 (2·(1 − Φ(4)) = 6.3e-5) and
 /// at least 20 do. A few isolated spikes do not make a record heavy-tailed.
-fn heavy_tailed(resid: &[Vec<f64>]) -> bool {
+fn heavy_tailed(rate: &[f64], m: usize) -> bool {
     let (mut n, mut beyond) = (0usize, 0usize);
-    for r in resid {
+    for r in rate.chunks_exact(m).map(line_residuals) {
         let rms = (r.iter().map(|v| v * v).sum::<f64>() / r.len().max(1) as f64).sqrt();
         if rms > 0.0 {
             n += r.len();
@@ -283,16 +283,14 @@ impl VarianceTest {
     /// The test on samples `rate` in blocks of `m`, at block temperatures `temp`.
     fn from_samples(rate: &[f64], m: usize, temp: Vec<f64>) -> Option<Self> {
         let counted = output_quantum(rate);
-        let resid: Vec<Vec<f64>> = rate.chunks_exact(m).map(line_residuals).collect();
         // Only on a continuous output: on counts, even ones the noise dithers (σ half a
         // count), the mean of |e|^½ follows where the block's mean rate falls between counts
         // far more than the variance does (a t₃ record with 0.02″ counts and no noise scale,
         // hiding a ripple, gave a noise scale at ΔBIC −687 in its place).
-        let heavy = super::prepare::read_quantum(rate).is_none() && heavy_tailed(&resid);
+        let heavy = super::prepare::read_quantum(rate).is_none() && heavy_tailed(rate, m);
         let mut z: Vec<f64> = if heavy {
-            resid
-                .iter()
-                .map(|r| log_root_scale(r))
+            rate.chunks_exact(m)
+                .map(|c| log_root_scale(&line_residuals(c)))
                 .collect::<Option<_>>()?
         } else {
             rate.chunks_exact(m)
