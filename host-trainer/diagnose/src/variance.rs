@@ -405,12 +405,16 @@ impl VarianceTest {
     /// Best k at a fixed reference: a scan of 80 points over [floor, 20] in asinh scale,
     /// then golden-section refinement; (k, rss).
     fn best_k(&self, ref_c: f64) -> (f64, f64) {
+        grid_then_golden(&self.k_grid(ref_c, 80), 60, |k| self.rss(k, ref_c))
+    }
+
+    /// `n` values of k over [floor, 20] at this reference, evenly spaced in asinh.
+    fn k_grid(&self, ref_c: f64, n: u32) -> Vec<f64> {
         let lo = self.k_floor(ref_c).max(-20.0);
         let (a, b) = (lo.asinh(), 20.0f64.asinh());
-        let grid: Vec<f64> = (0..80)
-            .map(|i| (a + (b - a) * f64::from(i) / 79.0).sinh())
-            .collect();
-        grid_then_golden(&grid, 60, |k| self.rss(k, ref_c))
+        (0..n)
+            .map(|i| (a + (b - a) * f64::from(i) / f64::from(n - 1)).sinh())
+            .collect()
     }
 
     /// The smallest rss over the reference at a fixed k: the grid `refs`, then golden-section
@@ -462,12 +466,7 @@ impl VarianceTest {
                 self.rss(k, ref_c)
             })
         };
-        let lo = self.k_floor(ref_c).max(-20.0);
-        let (a, b) = (lo.asinh(), 20.0f64.asinh());
-        let grid: Vec<f64> = (0..40)
-            .map(|i| (a + (b - a) * f64::from(i) / 39.0).sinh())
-            .collect();
-        let (k, rss_min) = grid_then_golden(&grid, 40, |k| sigma_at(k).1);
+        let (k, rss_min) = grid_then_golden(&self.k_grid(ref_c, 40), 40, |k| sigma_at(k).1);
         let n = self.z.len() as f64;
         let sigma2 = rss_min / (n - 4.0).max(1.0);
         // The Δχ² ≤ 1 interval of the profile, walked out from k̂ in steps of the conditional
