@@ -145,6 +145,17 @@ pub(crate) fn run(
             ));
         }
     }
+    if let Some(d) = var
+        .as_ref()
+        .map(VarianceTest::detrend_degree)
+        .filter(|d| *d > 1)
+    {
+        notes.push(format!(
+            "the rate curves within the 100 s blocks by more than its 1 s noise (a large \
+             temperature coefficient where the ramps bend): the noise-scale test takes each \
+             block's variance about a polynomial of degree {d}, not its straight line"
+        ));
+    }
     if var.as_ref().is_some_and(VarianceTest::heavy_tailed) {
         notes.push(
             "the white noise is heavy-tailed (samples beyond 4 RMS of their block more than \
@@ -239,12 +250,20 @@ pub(crate) fn run(
                     ));
                     (r.gyro, r.check)
                 } else {
-                    notes.push(format!(
-                        "the residual's Allan deviation departs from white noise and bias \
-                         instability (p = {p_wb:.3}): rate random walk added to the noise \
-                         model (K = {:.2e} °/h/√h)",
-                        g1.rrw_dph_per_rt_h
-                    ));
+                    notes.push(if g1.rrw_dph_per_rt_h > 0.0 {
+                        format!(
+                            "the residual's Allan deviation departs from white noise and bias \
+                             instability (p = {p_wb:.3}): rate random walk added to the noise \
+                             model (K = {:.2e} °/h/√h)",
+                            g1.rrw_dph_per_rt_h
+                        )
+                    } else {
+                        format!(
+                            "the residual's Allan deviation departs from white noise and bias \
+                             instability (p = {p_wb:.3}); refitted with rate random walk \
+                             allowed, the likeliest K is 0"
+                        )
+                    });
                     let c1 = check(&g1);
                     (g1, c1)
                 }
