@@ -353,6 +353,9 @@ pub fn diagnose<'a>(
     if prep.faults.total() > 0 {
         d.evidence.notes.push(prep.faults.describe());
     }
+    if let Some(b) = &prep.bursts {
+        d.evidence.notes.push(b.describe());
+    }
     // Further findings: the term found is added to the model (its amplitude refitted with
     // the baseline, its non-linear parameter kept) and the search runs again on what is
     // left, with its own bootstrap threshold, until nothing more is significant.

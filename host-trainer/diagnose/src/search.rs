@@ -112,7 +112,8 @@ pub(crate) fn run(
     // The noise-scale family: one point with no mean column, its ΔBIC from the variance test.
     let mut notes = Vec::new();
     let block_s = prep.block as f64 * prep.dt_s;
-    if block_s > super::prepare::BLOCK_S * 1.5 {
+    // (A record of burst means has one sample per block, however long the blocks.)
+    if prep.block > 1 && block_s > super::prepare::BLOCK_S * 1.5 {
         notes.push(format!(
             "the record is {:.1} days long: it is analysed as {} means of {block_s:.0} s (at \
              most {} blocks) instead of 100 s means, and periodic terms are searched down to \

@@ -531,3 +531,59 @@ fn sensor_faults_in_a_clean_recording_are_dropped_and_named() {
         "{note}"
     );
 }
+
+/// The record as a logger that wakes for bursts would give it: the first `len` samples of
+/// every `every` (1 Hz: `len` s every `every` s).
+fn in_bursts(
+    rec: &rlg_io::recording::Recording,
+    len: usize,
+    every: usize,
+) -> rlg_io::recording::Recording {
+    let keep: Vec<bool> = (0..rec.len()).map(|i| i % every >= len).collect();
+    rec.without(&keep)
+}
+
+/// A record sampled in bursts (5 s at 1 Hz every 30 s) is diagnosed on its burst means: a
+/// clean one is `consistent`, and a 300 s sensor lag is found with its τ within 20 %; the
+/// evidence says how the record was read. In 100 s blocks of consecutive samples, each
+/// block spanned 10 min and the record gave too few of them to diagnose. A continuous record
+/// and one with dropouts are not taken for bursts.
+#[test]
+fn burst_sampled_records_are_diagnosed_on_their_burst_means() {
+    let sim = simulate(&scenario(vec![], 1.0), 11).expect("simulates");
+    assert!(prepare::find_bursts(&sim.recording.time_s).is_none());
+    let rec = in_bursts(&sim.recording, 5, 30);
+    let (_, b) = prepare::find_bursts(&rec.time_s).expect("bursts");
+    assert_eq!((b.samples, b.period_s), (5, 30.0));
+    let d = diagnose(&rec, &PhysicsModel::paper(), &Options::default()).expect("diagnoses");
+    assert_eq!(d.verdict, Verdict::Consistent, "{:#?}", d.evidence);
+    assert!(
+        d.evidence
+            .notes
+            .iter()
+            .any(|n| n.contains("sampled in bursts")),
+        "{:?}",
+        d.evidence.notes
+    );
+    let sim =
+        simulate(&scenario(vec![Term::SensorLag { tau_s: 300.0 }], 1.0), 12).expect("simulates");
+    let d = diagnose(
+        in_bursts(&sim.recording, 5, 30),
+        &PhysicsModel::paper(),
+        &Options::default(),
+    )
+    .expect("diagnoses");
+    assert_eq!(d.verdict, Verdict::MissingPhysics, "{:#?}", d.evidence);
+    let f = &d.findings[0];
+    assert_eq!(f.mechanism, Mechanism::SensorLag, "{:#?}", d.evidence);
+    let tau = f.parameters["tau_s"];
+    assert!((tau / 300.0 - 1.0).abs() < 0.2, "tau {tau}");
+    // Dropouts of 30 and 50 min in a continuous record are gaps, not bursts.
+    let drop: Vec<bool> = sim
+        .recording
+        .time_s
+        .iter()
+        .map(|&t| (5_000.0..6_800.0).contains(&t) || (12_000.0..15_000.0).contains(&t))
+        .collect();
+    assert!(prepare::find_bursts(&sim.recording.without(&drop).time_s).is_none());
+}
