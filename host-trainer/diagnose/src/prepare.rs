@@ -512,8 +512,9 @@ impl Bursts {
 }
 
 /// The runs of a record sampled in bursts, or `None` for a record sampled throughout (gaps
-/// and all). Runs are split at steps over 1.5 times the median step (the reader's gap rule).
-/// A record is taken as burst-sampled when it has at least [`MIN_BLOCKS`] runs, its median
+/// and all). Runs are split at steps over [`BURST_GAP`] times the median step (not the
+/// reader's 1.5: a logger's time stamps jitter within a burst, and a burst split in two would
+/// be two means a fraction of a second apart). A record is taken as burst-sampled when it has at least [`MIN_BLOCKS`] runs, its median
 /// run lasts under half a block ([`BLOCK_S`]) and runs start at least twice their length
 /// apart: in 100 s blocks of consecutive samples each block would then span many bursts
 /// and hours (a day of 5 s bursts at 1 Hz every 2 min gave 38 blocks, too few to diagnose).
@@ -531,7 +532,7 @@ pub fn find_bursts(time_s: &[f64]) -> Option<(Vec<std::ops::Range<usize>>, Burst
     let mut runs = Vec::new();
     let mut start = 0;
     for i in 1..n {
-        if time_s[i] - time_s[i - 1] > 1.5 * step {
+        if time_s[i] - time_s[i - 1] > BURST_GAP * step {
             runs.push(start..i);
             start = i;
         }
@@ -563,6 +564,9 @@ pub fn find_bursts(time_s: &[f64]) -> Option<(Vec<std::ops::Range<usize>>, Burst
     };
     Some((runs, b))
 }
+
+/// A step between bursts is at least this many median steps.
+const BURST_GAP: f64 = 10.0;
 
 /// The recording of one sample per run of `runs`: the means of its time, rate, temperature
 /// and chamber temperature. Columns this crate does not interpret are not carried.

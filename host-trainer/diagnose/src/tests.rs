@@ -555,6 +555,15 @@ fn burst_sampled_records_are_diagnosed_on_their_burst_means() {
     let rec = in_bursts(&sim.recording, 5, 30);
     let (_, b) = prepare::find_bursts(&rec.time_s).expect("bursts");
     assert_eq!((b.samples, b.period_s), (5, 30.0));
+    // A logger's time stamps jitter within a burst (±0.3 s here): still one run per burst.
+    let jittered: Vec<f64> = rec
+        .time_s
+        .iter()
+        .enumerate()
+        .map(|(i, t)| t + 0.3 * ((i * 7 % 5) as f64 / 2.0 - 1.0))
+        .collect();
+    let (_, j) = prepare::find_bursts(&jittered).expect("bursts");
+    assert_eq!((j.count, j.samples), (b.count, 5));
     let d = diagnose(&rec, &PhysicsModel::paper(), &Options::default()).expect("diagnoses");
     assert_eq!(d.verdict, Verdict::Consistent, "{:#?}", d.evidence);
     assert!(

@@ -255,13 +255,17 @@ fn detrend_degree(rate: &[f64], m: usize) -> usize {
         return 1;
     }
     let det = Detrend::new(m, top);
-    // Per block: the total sum of squares and the squared coefficients.
+    // Per block: the sum of squares about its mean and the squared coefficients (centred
+    // first: a bias of thousands of °/h beside a 1 s noise of hundredths would otherwise
+    // leave the residual sum to round-off).
     let blocks: Vec<(f64, Vec<f64>)> = rate
         .chunks_exact(m)
         .map(|c| {
+            let mean = c.iter().sum::<f64>() / m as f64;
+            let d: Vec<f64> = c.iter().map(|v| v - mean).collect();
             (
-                dot(c, c),
-                det.coefficients(c).iter().map(|v| v * v).collect(),
+                dot(&d, &d),
+                det.coefficients(&d).iter().map(|v| v * v).collect(),
             )
         })
         .collect();
