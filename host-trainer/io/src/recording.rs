@@ -373,7 +373,7 @@ impl Recording {
             let gaps = all.iter().filter(|s| **s > 1.5 * step).count();
             if gaps > 0 {
                 out.push(format!(
-                    "time_s: {gaps} gap(s) longer than 1.5 sample periods; features bridge them as the board bridges missing samples; held-out 100 s stabilities never average across a gap (metrics::gapless_block_means); the diagnosis averages consecutive samples"
+                    "time_s: {gaps} gap(s) longer than 1.5 sample periods; features bridge them as the board bridges missing samples; held-out 100 s stabilities never average across a gap (metrics::gapless_block_means); the diagnosis averages consecutive samples, or each burst of a record sampled in bursts"
                 ));
             }
         }
