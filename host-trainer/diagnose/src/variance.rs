@@ -190,7 +190,9 @@ fn log_root_scale(r: &[f64]) -> Option<f64> {
 
 /// Least-squares polynomial detrending of blocks of `m` samples: an orthonormal basis of the
 /// polynomials of degree ≤ d over the block's sample times (Gram–Schmidt of 1, x, x², … on
-/// x ∈ [−1, 1], twice for round-off). Degree 1 is [`line_residuals`] and [`line_variance`].
+/// x ∈ [−1, 1], twice for round-off). Degree 1 stays with the closed-form [`line_residuals`]
+/// and [`line_variance`], so that a record without curvature gives the same bits as before
+/// the degree was chosen (every benchmark record does).
 struct Detrend {
     basis: Vec<Vec<f64>>,
 }
