@@ -1,6 +1,7 @@
 //! Significance by a parametric bootstrap of the fitted gyro noise model: the null
 //! distributions of the best ΔBIC over all families (the look-elsewhere effect included), of
-//! each family alone and of the generic-structure test.
+//! each family alone and of the generic-structure test, and of the smaller of the two tests'
+//! p-values, which the verdict's false-alarm probability is.
 
 use rayon::prelude::*;
 
@@ -80,13 +81,32 @@ pub(super) fn bootstrap(
         })
         .collect();
     let overall = |r: &Vec<f64>| r.iter().copied().fold(f64::INFINITY, f64::min);
+    let best = NullDist::new(reps.iter().map(|r| overall(&r.0)).collect());
+    let structure = NullDist::new(reps.iter().map(|r| r.1).collect());
+    let either = either_null(&best, &structure, reps.iter().map(|r| (overall(&r.0), r.1)));
     Nulls {
-        best: NullDist::new(reps.iter().map(|r| overall(&r.0)).collect()),
+        best,
         family: (0..Family::ALL.len())
             .map(|f| NullDist::new(reps.iter().map(|r| r.0[f]).collect()))
             .collect(),
-        structure: NullDist::new(reps.iter().map(|r| r.1).collect()),
+        structure,
+        either,
     }
+}
+
+/// The null of the verdict from each replicate's pair of statistics (best candidate,
+/// generic structure): the smaller of its p-values in the two tests, each replicate counted
+/// among the replicates as the record counts itself in [`NullDist::p_value`].
+fn either_null(
+    best: &NullDist,
+    structure: &NullDist,
+    pairs: impl Iterator<Item = (f64, f64)>,
+) -> NullDist {
+    NullDist::new(
+        pairs
+            .map(|(b, g)| best.rank_p(b).min(structure.rank_p(g)))
+            .collect(),
+    )
 }
 
 /// The bootstrap's null distributions.
@@ -98,6 +118,27 @@ pub(super) struct Nulls {
     pub(super) family: Vec<NullDist>,
     /// Generic structure ΔBIC.
     pub(super) structure: NullDist,
+    /// The smaller of each replicate's p-values in the two tests (best candidate, generic
+    /// structure).
+    either: NullDist,
+}
+
+impl Nulls {
+    /// The verdict is not `consistent` when either test is significant, so its false-alarm
+    /// probability is that of the smaller of their two p-values, up to twice each test's
+    /// (by how much depends on how alike the two tests are on the record's noise; the same
+    /// replicates measure it, a min-p adjustment as in Westfall & Young 1993). This maps a
+    /// p-value of one test to that scale: the share of replicates whose smaller p-value is
+    /// at most as large.
+    pub(super) fn either_p(&self, p: f64) -> f64 {
+        self.either.p_value(p).max(p)
+    }
+
+    /// The level at which each test is run so that the two together have false-alarm
+    /// probability `alpha`: the `alpha` quantile of the smaller p-value.
+    pub(super) fn level(&self, alpha: f64) -> f64 {
+        self.either.quantile(alpha)
+    }
 }
 
 /// A bootstrap null distribution of a ΔBIC (more negative = stronger evidence).
@@ -115,6 +156,12 @@ impl NullDist {
         self.0[((alpha * n as f64).floor() as usize).min(n - 1)]
     }
 
+    /// A replicate's own p-value among the replicates (itself counted once, as the record
+    /// counts itself in `p_value`).
+    fn rank_p(&self, x: f64) -> f64 {
+        self.0.partition_point(|v| *v <= x) as f64 / (self.0.len() + 1) as f64
+    }
+
     /// Bootstrap p-value of an observed ΔBIC: (1 + #replicates at least as extreme)/(B + 1).
     pub(super) fn p_value(&self, x: f64) -> f64 {
         let k = self.0.partition_point(|v| *v <= x);
@@ -124,8 +171,64 @@ impl NullDist {
 
 #[cfg(test)]
 mod tests {
-    use super::NullDist;
+    use super::{either_null, NullDist, Nulls};
     use crate::Family;
+
+    fn nulls(pairs: &[(f64, f64)]) -> Nulls {
+        let best = NullDist::new(pairs.iter().map(|p| p.0).collect());
+        let structure = NullDist::new(pairs.iter().map(|p| p.1).collect());
+        let either = either_null(&best, &structure, pairs.iter().copied());
+        Nulls {
+            best,
+            family: Vec::new(),
+            structure,
+            either,
+        }
+    }
+
+    /// Two tests that are extreme on the same replicates need no adjustment; two that are
+    /// extreme on different replicates double each p-value and halve each test's level.
+    #[test]
+    fn either_test_adjustment_follows_the_replicates() {
+        let n = 400;
+        // The same ranks in both tests.
+        let same: Vec<(f64, f64)> = (1..=n).map(|k| (-f64::from(k), -f64::from(k))).collect();
+        // Opposite ranks: the replicate most extreme in one is least extreme in the other.
+        let opposite: Vec<(f64, f64)> = (1..=n)
+            .map(|k| (-f64::from(k), -f64::from(n + 1 - k)))
+            .collect();
+        let (a, b) = (nulls(&same), nulls(&opposite));
+        let r = 1.0 / 401.0;
+        for p in [0.01, 0.02, 0.05, 0.1] {
+            let p = (p * 401.0_f64).round() * r;
+            assert!(
+                (a.either_p(p) - p).abs() <= 1.5 * r,
+                "same: {p} -> {}",
+                a.either_p(p)
+            );
+            assert!(
+                (b.either_p(p) - 2.0 * p).abs() <= 1.5 * r,
+                "opposite: {p} -> {}",
+                b.either_p(p)
+            );
+        }
+        for alpha in [0.01, 0.02, 0.05, 0.1] {
+            assert!(
+                (a.level(alpha) - alpha).abs() <= 1.5 * r,
+                "{}",
+                a.level(alpha)
+            );
+            assert!(
+                (b.level(alpha) - alpha / 2.0).abs() <= 1.5 * r,
+                "{}",
+                b.level(alpha)
+            );
+        }
+        // The adjusted p-value is never below the test's own.
+        for p in [r, 0.3, 1.0] {
+            assert!(a.either_p(p) >= p && b.either_p(p) >= p);
+        }
+    }
 
     /// The per-family nulls are indexed by `Family::index`, which must follow `Family::ALL`.
     #[test]

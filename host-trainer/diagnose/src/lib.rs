@@ -14,9 +14,13 @@
 //!    ΔBIC on the whitened 100 s means.
 //! 4. Thresholds: a parametric bootstrap of the fitted noise model run through the same scan
 //!    gives the null distribution of the best ΔBIC over all candidates (this accounts for the
-//!    coloured noise and for the look-elsewhere effect of the scans); a candidate counts when
-//!    its ΔBIC is below the null's 1 − α quantile AND it lowers the held-out (4-fold,
-//!    interleaved 1 h chunks) residual of the 100 s means.
+//!    coloured noise and for the look-elsewhere effect of the scans), and that of a generic
+//!    structure test (time chunks, temperature and dT/dt bands). Either test makes the
+//!    verdict other than `consistent`, so each is run at the level at which the two together
+//!    have false-alarm probability α (the α quantile of the smaller of each replicate's two
+//!    p-values), and their p-values are reported on that scale. A candidate counts when its
+//!    ΔBIC is below its threshold AND it lowers the held-out (4-fold, interleaved 1 h chunks)
+//!    residual of the 100 s means.
 //!    Where the noise model fails its check, a finding also needs evidence that does not
 //!    rest on it (each temperature cycle predicted from the others; a slow function of time
 //!    alone is reported as inseparable slow drift), and a finding must leave no generic
@@ -229,7 +233,8 @@ pub struct Evidence {
     /// [`RampEvidence::p_under_rrw`] when a rate ramp was preferred to
     /// rate random walk (every test then rests on that choice; so do the candidates' and
     /// the structure test's p-values). On recordings with nothing missing the share with
-    /// `p_value` ≤ α is the false-alarm rate at α.
+    /// `p_value` ≤ α is the false-alarm rate at α. The bootstrap p-values in it are those of
+    /// either test being as extreme (see `Nulls::either_p`), not of one test alone.
     #[serde(default = "one")]
     pub p_value: f64,
     /// What the diagnosis could not test or assumed, in plain words.
@@ -241,7 +246,8 @@ pub struct Evidence {
     pub structure_threshold: f64,
     /// Generic-structure ΔBIC of the baseline residual.
     pub structure_delta_bic: f64,
-    /// Its bootstrap p-value (the share of noise replicates with a ΔBIC at least as low). On
+    /// Its bootstrap p-value (the share of noise replicates with a ΔBIC at least as low, on
+    /// the verdict's scale as the candidates' `p_value`). On
     /// the first pass, when the fitted noise has no rate random walk and this share is at
     /// most 0.2, the larger of it and the same test's p-value under the record's noise
     /// refitted with rate random walk (the structure test needs both at α).
@@ -313,8 +319,10 @@ pub struct CandidateScore {
     #[serde(default)]
     pub threshold: f64,
     /// Bootstrap p-value of its ΔBIC against the null distribution of the best ΔBIC over
-    /// all families and grid points (look-elsewhere included): it is significant exactly
-    /// when this is at most α (up to the bootstrap's resolution, 1/(replicates + 1)). For a
+    /// all families and grid points (look-elsewhere included), on the scale of the verdict
+    /// (the share of replicates in which this test or the generic structure test is as
+    /// extreme): it is significant exactly when this is at most α (up to the bootstrap's
+    /// resolution, 1/(replicates + 1)). For a
     /// slow function of time alone tested again under rate random walk, the larger of the
     /// two p-values.
     #[serde(default)]

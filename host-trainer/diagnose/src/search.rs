@@ -311,10 +311,9 @@ pub(crate) fn run(
     }
 
     let nulls = bootstrap(&ar, &gyro, &s, &points, var.as_ref(), prep, opts);
-    let (thr_all, thr_gen) = (
-        nulls.best.quantile(opts.alpha),
-        nulls.structure.quantile(opts.alpha),
-    );
+    // Each test at the level that gives the two together false-alarm probability α.
+    let level = nulls.level(opts.alpha);
+    let (thr_all, thr_gen) = (nulls.best.quantile(level), nulls.structure.quantile(level));
     let thr = |_: Family| thr_all;
     // The generic test's second null, under rate random walk (see `structure_under_rrw`).
     let struct_p1 = nulls.structure.p_value(s.gen_dbic);
@@ -492,7 +491,9 @@ pub(crate) fn run(
             sig_counted |= separable;
             if separable {
                 p_counted = p_counted.min(floor(
-                    nulls.best.p_value(s.dbic[i]).max(p_slow.unwrap_or(0.0)),
+                    nulls
+                        .either_p(nulls.best.p_value(s.dbic[i]))
+                        .max(p_slow.unwrap_or(0.0)),
                 ));
             }
             if separable && candidate {
@@ -528,7 +529,11 @@ pub(crate) fn run(
             mechanism: f.mechanism(),
             delta_bic: s.dbic[i],
             threshold: thr(f),
-            p_value: floor(nulls.best.p_value(s.dbic[i]).max(p_slow.unwrap_or(0.0))),
+            p_value: floor(
+                nulls
+                    .either_p(nulls.best.p_value(s.dbic[i]))
+                    .max(p_slow.unwrap_or(0.0)),
+            ),
             p_value_alone: nulls.family[f.index()].p_value(s.dbic[i]),
             heldout_gain: gain,
             cycle_gain,
@@ -582,13 +587,16 @@ pub(crate) fn run(
         && struct_p1 <= STRUCTURE_RRW_BELOW)
         .then(|| structure_under_rrw(prep, &base_b, &generic, opts))
         .flatten();
-    let structure_p = floor(struct_p_rrw.map_or(struct_p1, |q| struct_p1.max(q)));
+    let structure_p = floor(nulls.either_p(struct_p_rrw.map_or(struct_p1, |q| struct_p1.max(q))));
     p_counted = p_counted.min(structure_p);
     let any_sig = sig_counted || (s.gen_dbic < thr_gen && structure_p <= opts.alpha);
-    if let Some(q) = struct_p_rrw.filter(|q| struct_p1 <= opts.alpha && *q > opts.alpha) {
+    if let Some((p1, q)) = struct_p_rrw
+        .map(|q| (nulls.either_p(struct_p1), nulls.either_p(q)))
+        .filter(|(p1, q)| *p1 <= opts.alpha && *q > opts.alpha)
+    {
         notes.push(format!(
             "the generic structure test (time chunks, temperature and dT/dt bands) is \
-             significant under white noise and bias instability (p = {struct_p1:.3}) but not \
+             significant under white noise and bias instability (p = {p1:.3}) but not \
              under the same record's noise refitted with rate random walk (p = {q:.3}): slow \
              drift, not separable from the record's own slow noise in a record this long"
         ));
