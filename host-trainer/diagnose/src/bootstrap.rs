@@ -129,10 +129,11 @@ impl Nulls {
     /// (by how much depends on how alike the two tests are on the record's noise; the same
     /// replicates measure it, a min-p adjustment as in Westfall & Young 1993). This maps a
     /// p-value of one test to that scale: the share of replicates whose smaller p-value is
-    /// at most as large. The structure test enters as it is in the replicates, without the
-    /// second null under rate random walk that on a record can raise its p-value; where that
-    /// makes it rare on the records, the adjustment is conservative (measured on the matched
-    /// benchmark: the diagnose README's calibration section).
+    /// at most as large. The structure test enters as it is in the replicates (uniform, and
+    /// without the second null under rate random walk that can raise a record's p-value);
+    /// where it is rarer on the records than in the replicates, the adjustment is
+    /// conservative (measured on the matched benchmark: the diagnose README's calibration
+    /// section).
     pub(super) fn either_p(&self, p: f64) -> f64 {
         self.either.p_value(p).max(p)
     }
