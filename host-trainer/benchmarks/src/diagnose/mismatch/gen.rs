@@ -13,7 +13,6 @@ use super::thermal::{self, describe_body, describe_chamber, Body, Chamber, Profi
 use super::{uni, Kind};
 use crate::diagnose::BenchError;
 use rlg_diagnose::prepare::{prepare, PhysicsModel};
-use rlg_diagnose::variance::heteroscedastic_detectability;
 use rlg_eval::paper::eq11;
 use rlg_io::recording::Recording;
 use rlg_physics::{contribution, Axis, Term};
@@ -277,7 +276,10 @@ pub fn build_case(
             } => {
                 // D is not linear in k (it is in ln(1 + k·x)): bisection on a log scale.
                 let body = &tr.node_c[prep.range.clone()];
-                let d_of = |k: f64| heteroscedastic_detectability(body, k, *ref_c);
+                let d_of = |k: f64| {
+                    c.noise
+                        .scale_detectability(body, k, *ref_c, prep.dt_s, prep.block)
+                };
                 let (mut a, mut b) = (1e-5, 10.0);
                 if d_of(b) < target {
                     continue;
@@ -297,7 +299,7 @@ pub fn build_case(
                     .map(|t| ((t - ref_c) / 30.0).powi(2))
                     .fold(0.0, f64::max);
                 let h = unit.scaled(k);
-                let d = hetero_d(&h, &tr, &prep).unwrap_or(f64::NAN);
+                let d = hetero_d(&h, &tr, &prep, &c.noise).unwrap_or(f64::NAN);
                 let stats = (d, 0.0, c.noise.white_sigma(DT_S) * k * xmax / s1);
                 return Ok(assemble(id, kind, c, h, target, d, stats, tr, read));
             }

@@ -5,13 +5,13 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use super::detect::{lag_effect, reading_effect};
+use super::noise::NoiseDraw;
 use super::thermal::Trajectory;
 use super::{log_uni, uni};
 use crate::diagnose::cases::scale_amplitude;
 use crate::diagnose::{BenchError, Label};
 use rlg_diagnose::candidates::Family;
 use rlg_diagnose::prepare::Prepared;
-use rlg_diagnose::variance::heteroscedastic_detectability;
 use rlg_physics::{contribution, Role, Term};
 
 /// What a case hides.
@@ -184,15 +184,23 @@ pub(super) fn mean_effect(
     })
 }
 
-/// D of a `heteroscedastic` term on the node temperatures of the fitted samples.
-pub(super) fn hetero_d(h: &Hidden, tr: &Trajectory, prep: &Prepared) -> Option<f64> {
+/// D of a `heteroscedastic` term on the node temperatures of the fitted samples, under the
+/// recording's noise ([`NoiseDraw::scale_detectability`]).
+pub(super) fn hetero_d(
+    h: &Hidden,
+    tr: &Trajectory,
+    prep: &Prepared,
+    noise: &NoiseDraw,
+) -> Option<f64> {
     match h {
         Hidden::Library {
             term: Term::Heteroscedastic { k, ref_c },
-        } => Some(heteroscedastic_detectability(
+        } => Some(noise.scale_detectability(
             &tr.node_c[prep.range.clone()],
             *k,
             *ref_c,
+            prep.dt_s,
+            prep.block,
         )),
         _ => None,
     }

@@ -48,9 +48,12 @@
 //! D is the matched set's (see the parent module's doc): D² = ēᵀ(Σ⁻¹ −
 //! Σ⁻¹X(XᵀΣ⁻¹X)⁻¹XᵀΣ⁻¹)ē, ē the effect's means on the diagnosis' 100 s blocks, X its baseline
 //! columns, Σ the exact covariance of this generator's block means (dense, the random walk
-//! makes it non-stationary; spikes left out). `heteroscedastic` has the matched set's D on
-//! the 1 Hz log-variance; `sensor_lag` and `temp_quantization`, which have no amplitude,
-//! reach theirs through the noise level.
+//! makes it non-stationary; spikes left out). `heteroscedastic` has its D on the 1 Hz
+//! log-variance with this generator's noise (`NoiseDraw::scale_detectability`: the angle
+//! count's and the bank's share of a sample's variance, which the term does not scale, and
+//! the Student-t's lesser information), where the matched set's assumes the white noise is
+//! all of it; `sensor_lag` and `temp_quantization`, which have no amplitude, reach theirs
+//! through the noise level.
 //!
 //! Measures: false alarms on clean recordings and the calibration of the p-values against
 //! α, per condition; top-1 accuracy by D; outside-library effects named as a library

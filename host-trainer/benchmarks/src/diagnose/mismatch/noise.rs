@@ -69,6 +69,29 @@ fn bank_sigma(taus: &[f64], b: f64) -> f64 {
     FLICKER_FLOOR * b / peak
 }
 
+/// Expected variance about its own least-squares line of `m` consecutive samples of a unit
+/// AR(1) process of coefficient `a`: (m − u₀ᵀRu₀ − u₁ᵀRu₁)/(m − 2), R_ij = a^|i−j|, u₀ and u₁
+/// the orthonormal constant and slope (tr R = m; the line takes R's part in their span).
+fn gm_block_share(a: f64, m: usize) -> f64 {
+    if m < 3 {
+        return 0.0;
+    }
+    let mf = m as f64;
+    let mid = (mf - 1.0) / 2.0;
+    let norm1 = (0..m).map(|i| (i as f64 - mid).powi(2)).sum::<f64>().sqrt();
+    let u1: Vec<f64> = (0..m).map(|i| (i as f64 - mid) / norm1).collect();
+    // Quadratic forms over the lags: Σ_ij u_i·u_j·a^|i−j| = Σ_d a^d·c_d, c_0 = Σ u_i²,
+    // c_d = 2·Σ_i u_i·u_{i+d}.
+    let (mut q0, mut q1, mut p) = (0.0, 0.0, 1.0);
+    for d in 0..m {
+        let w = if d == 0 { 1.0 } else { 2.0 };
+        q0 += w * p * (m - d) as f64 / mf;
+        q1 += w * p * (0..m - d).map(|i| u1[i] * u1[i + d]).sum::<f64>();
+        p *= a;
+    }
+    (mf - q0 - q1) / (mf - 2.0)
+}
+
 /// `n` correlation times log-spaced from `lo` over `decades`.
 fn log_spaced(lo: f64, decades: f64, n: usize) -> Vec<f64> {
     (0..n)
@@ -145,6 +168,73 @@ impl NoiseDraw {
     /// σ of a white sample, °/h.
     pub(super) fn white_sigma(&self, dt_s: f64) -> f64 {
         self.arw_dph_rt_h * 60.0 / dt_s.sqrt()
+    }
+
+    /// The part of a sample's expected variance about its block's line (blocks of `block`
+    /// samples of `dt_s`) that is not the white noise, (°/h)²: the angle count's Q²/6 and
+    /// the bank's ([`gm_block_share`]); the random walk's is negligible inside a block.
+    pub(super) fn unscaled_line_variance(&self, dt_s: f64, block: usize) -> f64 {
+        let q = self.quantum_arcsec / dt_s;
+        let bank: f64 = self
+            .gm_tau_s
+            .iter()
+            .map(|t| gm_block_share((-dt_s / t).exp(), block))
+            .sum();
+        q * q / 6.0 + self.gm_sigma_dph.powi(2) * bank
+    }
+
+    /// Detectability of a `heteroscedastic` term (the white σ times 1 + k·((T − ref)/30)²) on
+    /// 1 Hz samples at `temp_c` (°C, one per sample of `dt_s`) with this noise: the best
+    /// test's signal-to-noise ratio, the noise known, D² = I·Σ (g_i − ḡ)² with
+    /// g_i = ln(w²·(1 + k·x_i)² + v) the log-variance of a sample about its block's line
+    /// (blocks of `block` samples). v is what the term does not scale
+    /// ([`NoiseDraw::unscaled_line_variance`]): the angle count's Q²/6 per sample (the
+    /// variance of a difference of two uniform phases, averaged over where the rate falls
+    /// between counts) and the bank's variance about each block's line.
+    ///
+    /// I is the Fisher information of a sample's log-variance: ½ for a Gaussian sample,
+    /// ¼ for Student-t of 3 degrees of freedom (2ν/(ν + 3)/4), interpolated by the white
+    /// part's mean share of the variance when the white part is t3 and the rest is not (no
+    /// closed form exists for the sum).
+    ///
+    /// The diagnosis' own [`heteroscedastic_detectability`] is this with v = 0 and I = ½:
+    /// true of the matched simulator, not of a counted or heavy-tailed output, where it
+    /// overstates D (measured on the reported seed: a case it put at 9.0 under a 0.16″
+    /// quantum has the white part a twentieth of a sample's variance).
+    ///
+    /// [`heteroscedastic_detectability`]: rlg_diagnose::variance::heteroscedastic_detectability
+    pub(super) fn scale_detectability(
+        &self,
+        temp_c: &[f64],
+        k: f64,
+        ref_c: f64,
+        dt_s: f64,
+        block: usize,
+    ) -> f64 {
+        let w2 = self.white_sigma(dt_s).powi(2);
+        let v = self.unscaled_line_variance(dt_s, block);
+        let g: Vec<f64> = temp_c
+            .iter()
+            .map(|t| {
+                let s = 1.0 + k * ((t - ref_c) / 30.0).powi(2);
+                (w2 * s * s + v).ln()
+            })
+            .collect();
+        let info = if self.student_t {
+            let share = temp_c
+                .iter()
+                .map(|t| {
+                    let s = 1.0 + k * ((t - ref_c) / 30.0).powi(2);
+                    w2 * s * s / (w2 * s * s + v)
+                })
+                .sum::<f64>()
+                / temp_c.len().max(1) as f64;
+            0.5 - 0.25 * share
+        } else {
+            0.5
+        };
+        let mean = g.iter().sum::<f64>() / g.len().max(1) as f64;
+        (info * g.iter().map(|x| (x - mean).powi(2)).sum::<f64>()).sqrt()
     }
 
     /// σ of one sample of the stationary part (white and bank), °/h.

@@ -111,6 +111,80 @@ fn noise_has_the_covariance_of_its_draw() {
     assert!((var / want - 1.0).abs() < 0.1, "t3: {var} vs {want}");
 }
 
+/// What the noise-scale detectability takes as a sample's variance about its block's line,
+/// w² plus the unscaled part (angle count, bank), is what the generator makes, within 5 %:
+/// for a counted output whose quantum dominates, for a short bank whose processes move
+/// within a block, and for plain white noise (where D is the diagnosis' own formula).
+#[test]
+fn noise_scale_detectability_sees_the_samples_variance() {
+    let white = NoiseDraw {
+        arw_dph_rt_h: 2.5e-4,
+        student_t: false,
+        bias_instability_dph: 0.0,
+        one_over_f: false,
+        gm_tau_s: Vec::new(),
+        gm_sigma_dph: 0.0,
+        rrw_dph_per_rt_h: 0.0,
+        quantum_arcsec: 0.0,
+        spikes: Vec::new(),
+    };
+    let counted = NoiseDraw {
+        quantum_arcsec: 0.15,
+        ..white.clone()
+    };
+    let short_bank = NoiseDraw {
+        gm_tau_s: vec![40.0, 120.0, 400.0],
+        gm_sigma_dph: 0.02,
+        ..white.clone()
+    };
+    let m = 100;
+    for noise in [&white, &counted, &short_bank] {
+        // A rate that sweeps across counts, as a drifting bias does.
+        let clean: Vec<f64> = (0..400_000).map(|i| -7.1 + 1e-6 * f64::from(i)).collect();
+        let x = noise.generate(&clean, None, DT_S, 5);
+        let mut sum = 0.0;
+        let blocks = x.len() / m;
+        for b in 0..blocks {
+            let y = &x[b * m..(b + 1) * m];
+            // Residual variance about the least-squares line (m − 2 degrees of freedom).
+            let mid = (m as f64 - 1.0) / 2.0;
+            let ybar = y.iter().sum::<f64>() / m as f64;
+            let (mut sxy, mut sxx) = (0.0, 0.0);
+            for (i, v) in y.iter().enumerate() {
+                sxy += (i as f64 - mid) * (v - ybar);
+                sxx += (i as f64 - mid).powi(2);
+            }
+            let slope = sxy / sxx;
+            let rss: f64 = y
+                .iter()
+                .enumerate()
+                .map(|(i, v)| (v - ybar - slope * (i as f64 - mid)).powi(2))
+                .sum();
+            sum += rss / (m as f64 - 2.0);
+        }
+        let got = sum / blocks as f64;
+        let want = noise.white_sigma(DT_S).powi(2) + noise.unscaled_line_variance(DT_S, m);
+        assert!(
+            (got / want - 1.0).abs() < 0.05,
+            "{got} vs {want} ({noise:?})"
+        );
+    }
+    let temp: Vec<f64> = (0..86_400)
+        .map(|i| 20.0 + 30.0 * (f64::from(i) / 9000.0).sin())
+        .collect();
+    let ours = white.scale_detectability(&temp, 0.3, 0.0, DT_S, m);
+    let diag = rlg_diagnose::variance::heteroscedastic_detectability(&temp, 0.3, 0.0);
+    assert!((ours / diag - 1.0).abs() < 1e-9, "{ours} vs {diag}");
+    let diluted = counted.scale_detectability(&temp, 0.3, 0.0, DT_S, m);
+    assert!(diluted < 0.5 * diag, "{diluted} vs {diag}");
+    let heavy = NoiseDraw {
+        student_t: true,
+        ..white.clone()
+    };
+    let t3 = heavy.scale_detectability(&temp, 0.3, 0.0, DT_S, m);
+    assert!((t3 / diag - 0.5f64.sqrt()).abs() < 1e-9, "{t3} vs {diag}");
+}
+
 /// Every kind of case reaches the detectability drawn for it within 1e-6 (recomputed from
 /// its recording, its final noise and its hidden effect), D is linear in the amplitude
 /// of the effects that have one, and the truth label is the mechanism, `unexplained` for
@@ -142,7 +216,7 @@ fn cases_reach_their_detectability() {
         assert!((3.0..=10.0).contains(&case.target_d));
         let prep = prepare(&case.recording).expect("prepares");
         let tr = &case.trajectory;
-        let d = match hetero_d(&case.hidden, tr, &prep) {
+        let d = match hetero_d(&case.hidden, tr, &prep, &case.conditions.noise) {
             Some(d) => d,
             None => {
                 let metric = Metric::new(&prep, &model, &case.conditions.noise)
