@@ -133,16 +133,24 @@ pub(crate) fn run(
             "the rate is an undithered count ({q:.4} °/h per sample, {:.4}″ counts)",
             q * prep.dt_s
         );
-        if var.is_some() {
+        if let Some(v) = var.as_ref() {
+            let summed = match v.summed() {
+                1 => String::new(),
+                k => format!(
+                    " (on sums of {k} samples: the noise is a small fraction of a count, \
+                     and a sum's noise grows with k while its count error does not)"
+                ),
+            };
             notes.push(format!(
                 "{counts}: the noise-scale test takes out the count's own variance, which \
-                 follows where each block's mean rate falls between counts"
+                 follows where each block's mean rate falls between counts{summed}"
             ));
         } else if families.contains(&Family::Heteroscedastic) {
             notes.push(format!(
-                "{counts} and its noise under {MIN_COUNT_SIGMA} counts: the noise-scale test \
-                 is not run (the noise's own share of the samples' variance is under a fifth; \
-                 the rest follows where the rate falls between counts)"
+                "{counts} and its noise under {MIN_COUNT_SIGMA} counts even summed over a \
+                 few samples: the noise-scale test is not run (the noise's own share of the \
+                 variance is under a fifth; the rest follows where the rate falls between \
+                 counts)"
             ));
         }
     }

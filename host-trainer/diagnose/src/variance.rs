@@ -57,6 +57,21 @@ struct CountVariance {
     /// σ in counts at the term's reference temperature, as the term's fit last set it (f64
     /// bits; the test is shared by the bootstrap's threads, which never read it).
     s_ref: AtomicU64,
+    /// What the blocks' lines make of the count's own part ([`count_line_factor`]).
+    line: f64,
+    /// Samples summed into each of the test's values ([`summed_samples`]; 1: none).
+    summed: usize,
+}
+
+/// The expected variance about its least-squares line of `n` values whose errors are
+/// differences of independent uniform phases (e_j − e_{j+1}: lag-one correlation −½), over
+/// their variance: tr((I − H)R)/(n − 2) with R = tridiag(−½, 1, −½), u₀ᵀRu₀ = 1/n and
+/// u₁ᵀRu₁ = 3/n for the orthonormal constant and slope, so (n − 4/n)/(n − 2). White noise's
+/// is 1; the count's part of a block of 100 samples reads 2 % high, of a dozen sums 18 %,
+/// which, taken for noise, biased a fitted noise scale of 1 to 0.85.
+fn count_line_factor(n: usize) -> f64 {
+    let n = n.max(3) as f64;
+    (n - 4.0 / n) / (n - 2.0)
 }
 
 /// frac(y)·(1 − frac(y)) = 1/6 − Σₘ cos(2πmy)/(π²m²); over y = x + n, n ~ N(0, s²), each
@@ -80,8 +95,9 @@ fn count_variance(x: f64, s: f64) -> f64 {
     s * s + h.max(0.0)
 }
 
-/// The smallest noise, in counts, at which the test runs on an undithered count. Below it
-/// the noise's own share of the samples' variance is under a fifth (s² against the
+/// The smallest noise, in counts, of the values (samples, or sums of them where the noise is
+/// a small fraction of a count: [`summed_samples`]) on which the test runs on an undithered
+/// count. Below it the noise's own share of the values' variance is under a fifth (s² against the
 /// fraction's ≈ 1/6), so a noise scale moves the log-variance by under a fifth of what it
 /// does on a continuous output, and what moves it most is the count model's detail: the
 /// rate's own drift within a block, a spike. Two records with counts 8 and 16 times their
@@ -102,7 +118,8 @@ impl CountVariance {
             .map(|(b, x)| {
                 let sb = s * scale(b);
                 if sb > 0.0 {
-                    count_variance(*x, sb.max(Self::S_MIN)).ln()
+                    let sv = sb.max(Self::S_MIN);
+                    (sv * sv + self.line * (count_variance(*x, sv) - sv * sv)).ln()
                 } else {
                     f64::NAN
                 }
@@ -112,8 +129,10 @@ impl CountVariance {
 
     /// s fitted by least squares of z − ln(count variance) about its mean (log grid of 61
     /// points over 0.01…3 counts, then golden section).
-    fn fit(xi: Vec<f64>, z: &[f64]) -> Self {
+    fn fit(xi: Vec<f64>, z: &[f64], n: usize, summed: usize) -> Self {
         let mut c = Self {
+            line: count_line_factor(n),
+            summed,
             xi,
             s: 1.0,
             base: Vec::new(),
@@ -370,12 +389,47 @@ fn grid_then_golden(grid: &[f64], iters: usize, f: impl Fn(f64) -> f64) -> (f64,
 /// of 10 samples, whose quantisation error is bounded (a count at each end, variance q²/6)
 /// while the noise's variance grows tenfold.
 pub fn output_quantum(rate_dph: &[f64]) -> Option<f64> {
+    undithered_count(rate_dph).map(|(q, _)| q)
+}
+
+/// The count's quantum and the per-sample noise σ (both °/h) of an undithered count (see
+/// [`output_quantum`]).
+fn undithered_count(rate_dph: &[f64]) -> Option<(f64, f64)> {
     let q = super::prepare::read_quantum(rate_dph)?;
     let sums: Vec<f64> = rate_dph.chunks_exact(10).map(|c| c.iter().sum()).collect();
     let d: Vec<f64> = sums.windows(2).map(|w| w[1] - w[0]).collect();
     let var_sum = d.iter().map(|v| v * v).sum::<f64>() / (2.0 * d.len().max(1) as f64);
     let sigma = ((var_sum - q * q / 6.0).max(0.0) / 10.0).sqrt();
-    (sigma < 0.5 * q).then_some(q)
+    (sigma < 0.5 * q).then_some((q, sigma))
+}
+
+/// The noise, in counts, that the samples of an undithered count are summed up to before
+/// the noise-scale test (see [`summed_samples`]).
+const SUMMED_COUNT_SIGMA: f64 = 0.4;
+
+/// How many consecutive samples of an undithered count of per-sample noise `s` counts the
+/// noise-scale test sums into one, in blocks of `m`: the fewest whose sum has noise
+/// s·√k ≥ [`SUMMED_COUNT_SIGMA`], at most `m`/8.
+///
+/// A sum of k samples is the count over k samples: its variance is that of one sample with
+/// the rate k·x and the noise s·√k (the counts at its two ends alone are quantised), so the
+/// count's model is unchanged while the noise's share of the variance grows about k-fold.
+/// Each block's variance is that of its disjoint sums about their line, averaged over the k
+/// ways of cutting the block: of one dozen sums, a block where the rate sits near a whole
+/// count has all equal (no log-variance) often enough to stop the test; moving sums, whose
+/// line takes more of the noise's part than of the count's, bias k low (0.85 for 1).
+/// Under a fifth of a count the samples' variance is nearly all where the rate falls between
+/// counts and the test is not run (`MIN_COUNT_SIGMA`); summed, a count of 0.1 counts' noise
+/// (a 0.16″ quantum at the paper's noise) holds a noise scale the samples do not show: five
+/// of the mismatched benchmark's reported seed (D 6.9–9.0 on the noise its generator draws)
+/// were `consistent` with the test not run.
+fn summed_samples(s: f64, m: usize) -> usize {
+    let k = if s > 0.0 {
+        (SUMMED_COUNT_SIGMA / s).powi(2).ceil() as usize
+    } else {
+        usize::MAX
+    };
+    k.clamp(1, (m / 8).max(1))
 }
 
 impl VarianceTest {
@@ -386,9 +440,45 @@ impl VarianceTest {
         Self::from_samples(&prep.rate_dph, prep.block, prep.temp_b.clone())
     }
 
-    /// The test on samples `rate` in blocks of `m`, at block temperatures `temp`.
+    /// The test on samples `rate` in blocks of `m`, at block temperatures `temp`; on an
+    /// undithered count, on sums of [`summed_samples`] samples.
     fn from_samples(rate: &[f64], m: usize, temp: Vec<f64>) -> Option<Self> {
-        let counted = output_quantum(rate);
+        match undithered_count(rate) {
+            Some((q, sigma)) => {
+                let k = summed_samples(sigma / q, m);
+                if k == 1 {
+                    return Self::of_samples(rate, m, temp, Some(q));
+                }
+                // Each block's variance of disjoint k-sums about their line, averaged over
+                // the k ways of cutting the block into sums; the mean count of a sum from
+                // the whole block's count.
+                let z: Vec<f64> = rate
+                    .chunks_exact(m)
+                    .map(|b| {
+                        let v = (0..k)
+                            .filter_map(|o| {
+                                let sums: Vec<f64> =
+                                    b[o..].chunks_exact(k).map(|c| c.iter().sum()).collect();
+                                line_variance(&sums)
+                            })
+                            .sum::<f64>()
+                            / k as f64;
+                        (v > 0.0).then(|| v.ln())
+                    })
+                    .collect::<Option<_>>()?;
+                let xi = rate
+                    .chunks_exact(m)
+                    .map(|c| k as f64 * c.iter().map(|r| (r / q).round()).sum::<f64>() / m as f64)
+                    .collect();
+                Self::of_counts(z, xi, (m / k, k), temp, 1, false)
+            }
+            None => Self::of_samples(rate, m, temp, None),
+        }
+    }
+
+    /// The test on samples `rate` in blocks of `m`, whose quantum is `counted` when they are
+    /// an undithered count.
+    fn of_samples(rate: &[f64], m: usize, temp: Vec<f64>, counted: Option<f64>) -> Option<Self> {
         // Only on a continuous output: on counts, even ones the noise dithers (σ half a
         // count), the mean of |e|^½ follows where the block's mean rate falls between counts
         // far more than the variance does (a t₃ record with 0.02″ counts and no noise scale,
@@ -405,7 +495,7 @@ impl VarianceTest {
         };
         let heavy =
             super::prepare::read_quantum(rate).is_none() && heavy_tailed(rate, m, residuals);
-        let mut z: Vec<f64> = if heavy {
+        let z: Vec<f64> = if heavy {
             rate.chunks_exact(m)
                 .map(|c| log_root_scale(&residuals(c)))
                 .collect::<Option<_>>()?
@@ -414,24 +504,49 @@ impl VarianceTest {
                 .map(|c| variance(c).filter(|v| *v > 0.0).map(f64::ln))
                 .collect::<Option<_>>()?
         };
-        let quant = match counted {
-            None => None,
+        match counted {
+            None => Some(Self::of_log_scales(z, temp, None, heavy, degree)),
             Some(q) => {
                 // Whole counts per sample, so that each block's mean rate in counts is exact.
                 let xi: Vec<f64> = rate
                     .chunks_exact(m)
                     .map(|c| c.iter().map(|r| (r / q).round()).sum::<f64>() / m as f64)
                     .collect();
-                let c = CountVariance::fit(xi, &z);
-                if c.s < MIN_COUNT_SIGMA {
-                    return None;
-                }
-                for (v, g) in z.iter_mut().zip(&c.base) {
-                    *v -= g;
-                }
-                Some(c)
+                Self::of_counts(z, xi, (m, 1), temp, degree, heavy)
             }
-        };
+        }
+    }
+
+    /// The test on the block log-variances `z` of an undithered count whose blocks' mean
+    /// counts per sample are `xi`, `n` values a block each the sum of `summed` samples: the
+    /// count's own variance taken out ([`CountVariance`]);
+    /// None when the noise is under [`MIN_COUNT_SIGMA`] counts.
+    fn of_counts(
+        mut z: Vec<f64>,
+        xi: Vec<f64>,
+        (n, summed): (usize, usize),
+        temp: Vec<f64>,
+        degree: usize,
+        heavy: bool,
+    ) -> Option<Self> {
+        let c = CountVariance::fit(xi, &z, n, summed);
+        if c.s < MIN_COUNT_SIGMA {
+            return None;
+        }
+        for (v, g) in z.iter_mut().zip(&c.base) {
+            *v -= g;
+        }
+        Some(Self::of_log_scales(z, temp, Some(c), heavy, degree))
+    }
+
+    /// The test on block log-scales `z` at block temperatures `temp`.
+    fn of_log_scales(
+        z: Vec<f64>,
+        temp: Vec<f64>,
+        quant: Option<CountVariance>,
+        heavy: bool,
+        degree: usize,
+    ) -> Self {
         let mid = temp.iter().sum::<f64>() / temp.len().max(1) as f64;
         let u: Vec<f64> = temp.iter().map(|t| (t - mid) / 30.0).collect();
         let u2: Vec<f64> = u.iter().map(|v| v * v).collect();
@@ -446,7 +561,7 @@ impl VarianceTest {
             degree,
         };
         t.dbic = t.statistic(&t.z);
-        Some(t)
+        t
     }
 
     /// The log-variance the term adds to each block (NaN where the multiplier is not
@@ -470,6 +585,12 @@ impl VarianceTest {
     /// Whether the rate is an undithered count (its variance modelled, see `CountVariance`).
     pub fn counts(&self) -> bool {
         self.quant.is_some()
+    }
+
+    /// How many samples each of the test's values sums (1 but on an undithered count whose
+    /// noise is under a fraction of a count, [`summed_samples`]).
+    pub fn summed(&self) -> usize {
+        self.quant.as_ref().map_or(1, |c| c.summed)
     }
 
     /// Degree of the polynomial each block's variance is taken about (1: its line).
@@ -1005,10 +1126,11 @@ mod tests {
     /// On an undithered count with constant noise (σ 0.25 counts), the block variances follow
     /// the bias between counts and so temperature; with the count's variance taken out the
     /// test keeps near α (40 data sets, each against its own permutations' 10 % quantile).
-    /// Left in, it flags nearly every set. Under [`MIN_COUNT_SIGMA`] the test is not run.
+    /// Left in, it flags nearly every set. The test on sums of samples, where the noise is a
+    /// tenth of a count, keeps near α too (40 more sets, of which it runs on most).
     #[test]
     fn counts_do_not_make_a_noise_scale() {
-        let (mut with, mut without) = (0, 0);
+        let (mut with, mut without, mut summed, mut runs) = (0, 0, 0, 0);
         for seed in 0..40u64 {
             let (rate, temp) = counted_blocks(0.25, 0.0, 20.0, 300 + seed);
             let t = VarianceTest::from_samples(&rate, 100, temp.clone()).expect("test");
@@ -1019,15 +1141,35 @@ mod tests {
                 .map(|c| line_variance(c).expect("variance").ln())
                 .collect();
             without += usize::from(flagged(&test_of(raw, temp), seed));
+            let (rate, temp) = counted_blocks(0.1, 0.0, 20.0, 400 + seed);
+            if let Some(t) = VarianceTest::from_samples(&rate, 100, temp) {
+                assert!(t.counts());
+                runs += 1;
+                summed += usize::from(flagged(&t, seed));
+            }
         }
+        // Not run where a block's sums are all equal or the sums' fitted noise is under
+        // `MIN_COUNT_SIGMA`.
+        assert!(runs >= 20, "the test ran on {runs} of 40 sets of sums");
         // Binomial(40, 0.1): mean 4, P(X > 10) < 0.3 %.
         assert!(
             with <= 10,
             "{with} of 40 flagged with the count's variance out"
         );
+        assert!(summed <= 10, "{summed} of {runs} flagged on sums");
         assert!(without >= 30, "{without} of 40 flagged with it in");
-        let (rate, temp) = counted_blocks(0.1, 0.0, 20.0, 299);
-        assert!(VarianceTest::from_samples(&rate, 100, temp).is_none());
+    }
+
+    /// Where the noise is a small fraction of a count, the samples are summed
+    /// ([`summed_samples`]): 4 to a sum at 0.2 counts, 7 at 0.16, none at half a count, at
+    /// most an eighth of the block.
+    #[test]
+    fn summing_follows_the_noise() {
+        assert_eq!(summed_samples(0.2, 100), 4);
+        assert_eq!(summed_samples(0.16, 100), 7);
+        assert_eq!(summed_samples(0.5, 100), 1);
+        assert_eq!(summed_samples(0.1, 100), 12);
+        assert_eq!(summed_samples(0.0, 100), 12);
     }
 
     /// A noise scale on an undithered count is still found where the noise reaches across
@@ -1035,7 +1177,17 @@ mod tests {
     /// out near the truth.
     #[test]
     fn noise_scale_on_counts_is_found() {
-        let (rate, temp) = counted_blocks(0.2, 1.0, 20.0, 7);
+        noise_scale_on_counts_of(0.2, 0.15);
+    }
+
+    /// The same on sums of samples where the noise is a tenth of a count at the reference.
+    #[test]
+    fn noise_scale_on_summed_counts_is_found() {
+        noise_scale_on_counts_of(0.1, 0.3);
+    }
+
+    fn noise_scale_on_counts_of(s: f64, tol: f64) {
+        let (rate, temp) = counted_blocks(s, 1.0, 20.0, 7);
         let t = VarianceTest::from_samples(&rate, 100, temp).expect("test");
         assert!(t.counts());
         let mut rng = ChaCha8Rng::seed_from_u64(9);
@@ -1047,7 +1199,7 @@ mod tests {
             panic!("not heteroscedastic")
         };
         assert!((k - 1.0).abs() < 3.0 * unc[0].1, "k {k} ± {}", unc[0].1);
-        assert!((k - 1.0).abs() < 0.15, "k {k}");
+        assert!((k - 1.0).abs() < tol, "k {k}");
     }
 
     /// 900 blocks of 100 Student-t samples (3 degrees of freedom) whose scale follows the
