@@ -147,10 +147,10 @@ pub(crate) fn run(
             ));
         } else if families.contains(&Family::Heteroscedastic) {
             notes.push(format!(
-                "{counts} and its noise under {MIN_COUNT_SIGMA} counts even summed over a \
-                 few samples: the noise-scale test is not run (the noise's own share of the \
-                 variance is under a fifth; the rest follows where the rate falls between \
-                 counts)"
+                "{counts} whose noise is too small a part of a count even summed over a few \
+                 samples (under {MIN_COUNT_SIGMA} counts, or a block whose sums are all \
+                 equal): the noise-scale test is not run (what remains of the variance \
+                 follows where the rate falls between counts)"
             ));
         }
     }
