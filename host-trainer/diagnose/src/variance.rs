@@ -68,7 +68,9 @@ struct CountVariance {
 /// their variance: tr((I − H)R)/(n − 2) with R = tridiag(−½, 1, −½), u₀ᵀRu₀ = 1/n and
 /// u₁ᵀRu₁ = 3/n for the orthonormal constant and slope, so (n − 4/n)/(n − 2). White noise's
 /// is 1; the count's part of a block of 100 samples reads 2 % high, of a dozen sums 18 %,
-/// which, taken for noise, biased a fitted noise scale of 1 to 0.85.
+/// which, taken for noise, biased a fitted noise scale of 1 to 0.95 on sums (0.97 on
+/// samples; with the factor 1.00 and 0.99, tests `noise_scale_on_summed_counts_is_found`,
+/// `noise_scale_on_counts_is_found`).
 fn count_line_factor(n: usize) -> f64 {
     let n = n.max(3) as f64;
     (n - 4.0 / n) / (n - 2.0)
@@ -417,12 +419,13 @@ const SUMMED_COUNT_SIGMA: f64 = 0.4;
 /// Each block's variance is that of its disjoint sums about their line, averaged over the k
 /// ways of cutting the block: of one dozen sums, a block where the rate sits near a whole
 /// count has all equal (no log-variance) often enough to stop the test; moving sums, whose
-/// line takes more of the noise's part than of the count's, bias k low (0.85 for 1).
+/// line takes more of the noise's part than of the count's, biased k low (0.85 for 1).
 /// Under a fifth of a count the samples' variance is nearly all where the rate falls between
 /// counts and the test is not run (`MIN_COUNT_SIGMA`); summed, a count of 0.1 counts' noise
-/// (a 0.16″ quantum at the paper's noise) holds a noise scale the samples do not show: five
-/// of the mismatched benchmark's reported seed (D 6.9–9.0 on the noise its generator draws)
-/// were `consistent` with the test not run.
+/// (a 0.16″ quantum at the paper's noise) holds a noise scale the samples do not show: of the
+/// mismatched benchmark's noise scales on counts with noise under 0.2 counts, none had the
+/// test run; summed, 3 of 3 are found on design seed 1, 1 of 1 on design seed 3 and 4 of 6
+/// on the reported seed 2.
 fn summed_samples(s: f64, m: usize) -> usize {
     let k = if s > 0.0 {
         (SUMMED_COUNT_SIGMA / s).powi(2).ceil() as usize
@@ -1186,7 +1189,7 @@ mod tests {
     /// The same on sums of samples where the noise is a tenth of a count at the reference.
     #[test]
     fn noise_scale_on_summed_counts_is_found() {
-        noise_scale_on_counts_of(0.1, 0.3);
+        noise_scale_on_counts_of(0.1, 0.15);
     }
 
     fn noise_scale_on_counts_of(s: f64, tol: f64) {
