@@ -195,7 +195,10 @@ impl NoiseDraw {
     /// I is the Fisher information of a sample's log-variance: ½ for a Gaussian sample,
     /// ¼ for Student-t of 3 degrees of freedom (2ν/(ν + 3)/4), interpolated by the white
     /// part's mean share of the variance when the white part is t3 and the rest is not (no
-    /// closed form exists for the sum).
+    /// closed form exists for the sum). The count's part is taken as noise of its variance:
+    /// being a difference of phases its spectrum vanishes at low frequencies, so sums of
+    /// samples see less of it (the diagnosis sums where the noise is a small fraction of a
+    /// count), and this D is that of the samples' variances.
     ///
     /// The diagnosis' own [`heteroscedastic_detectability`] is this with v = 0 and I = ½:
     /// true of the matched simulator, not of a counted or heavy-tailed output, where it
@@ -213,22 +216,17 @@ impl NoiseDraw {
     ) -> f64 {
         let w2 = self.white_sigma(dt_s).powi(2);
         let v = self.unscaled_line_variance(dt_s, block);
-        let g: Vec<f64> = temp_c
+        // The scaled white part's variance at each sample.
+        let white: Vec<f64> = temp_c
             .iter()
             .map(|t| {
                 let s = 1.0 + k * ((t - ref_c) / 30.0).powi(2);
-                (w2 * s * s + v).ln()
+                w2 * s * s
             })
             .collect();
+        let g: Vec<f64> = white.iter().map(|x| (x + v).ln()).collect();
         let info = if self.student_t {
-            let share = temp_c
-                .iter()
-                .map(|t| {
-                    let s = 1.0 + k * ((t - ref_c) / 30.0).powi(2);
-                    w2 * s * s / (w2 * s * s + v)
-                })
-                .sum::<f64>()
-                / temp_c.len().max(1) as f64;
+            let share = white.iter().map(|x| x / (x + v)).sum::<f64>() / white.len().max(1) as f64;
             0.5 - 0.25 * share
         } else {
             0.5
