@@ -314,7 +314,7 @@ fn detrend_degree(rate: &[f64], m: usize) -> usize {
 }
 
 /// Sample variance of `y` about its least-squares line (None for fewer than 3 samples).
-fn line_variance(y: &[f64]) -> Option<f64> {
+pub fn line_variance(y: &[f64]) -> Option<f64> {
     let m = y.len();
     if m < 3 {
         return None;
@@ -405,6 +405,14 @@ fn undithered_count(rate_dph: &[f64]) -> Option<(f64, f64)> {
     (sigma < 0.5 * q).then_some((q, sigma))
 }
 
+/// Each block's mean count per `summed` samples of a count of quantum `q`, in blocks of
+/// `m`: whole counts per sample, so that the mean is exact.
+fn block_mean_counts(rate: &[f64], m: usize, q: f64, summed: usize) -> Vec<f64> {
+    rate.chunks_exact(m)
+        .map(|c| summed as f64 * c.iter().map(|r| (r / q).round()).sum::<f64>() / m as f64)
+        .collect()
+}
+
 /// The noise, in counts, that the samples of an undithered count are summed up to before
 /// the noise-scale test (see [`summed_samples`]).
 const SUMMED_COUNT_SIGMA: f64 = 0.4;
@@ -472,10 +480,7 @@ impl VarianceTest {
                         (v > 0.0).then(|| v.ln())
                     })
                     .collect::<Option<_>>()?;
-                let xi = rate
-                    .chunks_exact(m)
-                    .map(|c| k as f64 * c.iter().map(|r| (r / q).round()).sum::<f64>() / m as f64)
-                    .collect();
+                let xi = block_mean_counts(rate, m, q, k);
                 Self::of_counts(z, xi, (m / k, k), temp, 1, false)
             }
             None => Self::of_samples(rate, m, temp, None),
@@ -513,11 +518,7 @@ impl VarianceTest {
         match counted {
             None => Some(Self::of_log_scales(z, temp, None, heavy, degree)),
             Some(q) => {
-                // Whole counts per sample, so that each block's mean rate in counts is exact.
-                let xi: Vec<f64> = rate
-                    .chunks_exact(m)
-                    .map(|c| c.iter().map(|r| (r / q).round()).sum::<f64>() / m as f64)
-                    .collect();
+                let xi = block_mean_counts(rate, m, q, 1);
                 Self::of_counts(z, xi, (m, 1), temp, degree, heavy)
             }
         }

@@ -146,21 +146,7 @@ fn noise_scale_detectability_sees_the_samples_variance() {
         let blocks = x.len() / m;
         for b in 0..blocks {
             let y = &x[b * m..(b + 1) * m];
-            // Residual variance about the least-squares line (m − 2 degrees of freedom).
-            let mid = (m as f64 - 1.0) / 2.0;
-            let ybar = y.iter().sum::<f64>() / m as f64;
-            let (mut sxy, mut sxx) = (0.0, 0.0);
-            for (i, v) in y.iter().enumerate() {
-                sxy += (i as f64 - mid) * (v - ybar);
-                sxx += (i as f64 - mid).powi(2);
-            }
-            let slope = sxy / sxx;
-            let rss: f64 = y
-                .iter()
-                .enumerate()
-                .map(|(i, v)| (v - ybar - slope * (i as f64 - mid)).powi(2))
-                .sum();
-            sum += rss / (m as f64 - 2.0);
+            sum += rlg_diagnose::variance::line_variance(y).expect("variance");
         }
         let got = sum / blocks as f64;
         let want = noise.white_sigma(DT_S).powi(2) + noise.unscaled_line_variance(DT_S, m);
