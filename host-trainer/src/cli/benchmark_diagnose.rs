@@ -50,6 +50,12 @@ pub struct BenchmarkDiagnoseArgs {
     /// effects outside the library). Each case keeps its number and recording.
     #[arg(long, value_delimiter = ',')]
     pub only: Vec<String>,
+    /// Mismatched set only: hide warm-up, aging, mode hop, backscatter, periodic, hysteresis
+    /// and gradient lag in forms other than the library's terms (two-exponential and
+    /// power-law warm-ups, logarithmic and square-root aging, …); the report adds top-1 by
+    /// form.
+    #[arg(long)]
+    pub other_shapes: bool,
 }
 
 /// The α given on the command line, checked against what the bootstrap resolves.
@@ -72,6 +78,10 @@ pub fn run(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
     if args.set == Set::Mismatched {
         return run_mismatched_set(args);
     }
+    anyhow::ensure!(
+        !args.other_shapes,
+        "--other-shapes applies to --set mismatched only"
+    );
     let mut opts = if args.quick {
         BenchOptions::quick(args.seed)
     } else {
@@ -123,6 +133,7 @@ fn run_mismatched_set(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
         MismatchOptions::full(args.seed)
     };
     opts.keep = args.keep;
+    opts.other_shapes = args.other_shapes;
     for name in &args.only {
         opts.only.push(Kind::from_name(name).ok_or_else(|| {
             let known: Vec<&str> = rlg_diagnose::Family::ALL.iter().map(|f| f.name()).collect();

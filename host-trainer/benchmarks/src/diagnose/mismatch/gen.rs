@@ -9,6 +9,7 @@ use serde::Serialize;
 use super::detect::Metric;
 use super::hidden::{hetero_d, library_term, mean_effect, Hidden};
 use super::noise::{describe_noise, NoiseDraw, PAPER_ARW, PAPER_BI};
+use super::shapes::Shape;
 use super::thermal::{self, describe_body, describe_chamber, Body, Chamber, Profile, Trajectory};
 use super::{uni, Kind};
 use crate::diagnose::BenchError;
@@ -233,6 +234,18 @@ pub fn build_case(
     seed: u64,
     model: &PhysicsModel,
 ) -> Result<Case, BenchError> {
+    build_case_in(id, kind, seed, model, false)
+}
+
+/// [`build_case`], with `other_shapes` each library family that has one hidden in a form
+/// other than its term ([`Shape`]); the draws before the hidden effect are the same.
+pub fn build_case_in(
+    id: usize,
+    kind: Kind,
+    seed: u64,
+    model: &PhysicsModel,
+    other_shapes: bool,
+) -> Result<Case, BenchError> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream(id as u64);
     let target = uni(&mut rng, 3.0, 10.0);
@@ -251,8 +264,14 @@ pub fn build_case(
         };
         let unit = match kind {
             Kind::Clean => Hidden::None,
-            Kind::Library(f) => Hidden::Library {
-                term: library_term(f, &mut rng, lo, hi),
+            Kind::Library(f) => match other_shapes
+                .then(|| Shape::draw(f, &mut rng, lo, hi))
+                .flatten()
+            {
+                Some(shape) => Hidden::Shaped { shape },
+                None => Hidden::Library {
+                    term: library_term(f, &mut rng, lo, hi),
+                },
             },
             Kind::Step => Hidden::Step {
                 time_s: (c.chamber.duration_s * uni(&mut rng, 0.2, 0.8)).round(),

@@ -1,11 +1,13 @@
-//! The hidden effect of a mismatched case: a library term, nothing, or one of the two
-//! effects outside the library (a step in time, a term in (dT/dt)²).
+//! The hidden effect of a mismatched case: a library term, a library mechanism in another
+//! form ([`Shape`]), nothing, or one of the two effects outside the library (a step in time,
+//! a term in (dT/dt)²).
 
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use super::detect::{lag_effect, reading_effect};
 use super::noise::NoiseDraw;
+use super::shapes::Shape;
 use super::thermal::Trajectory;
 use super::{log_uni, uni};
 use crate::diagnose::cases::scale_amplitude;
@@ -37,6 +39,11 @@ pub enum Hidden {
         /// °/h per (°C/min)².
         coeff: f64,
     },
+    /// A library mechanism in another functional form (`--other-shapes`).
+    Shaped {
+        /// The form at its amplitude.
+        shape: Shape,
+    },
 }
 
 impl Hidden {
@@ -46,6 +53,7 @@ impl Hidden {
             Hidden::None => Label::None,
             Hidden::Library { term } => Label::Mechanism(term.mechanism()),
             Hidden::Step { .. } | Hidden::RateSquared { .. } => Label::Unexplained,
+            Hidden::Shaped { shape } => Label::Mechanism(shape.family().mechanism()),
         }
     }
 
@@ -61,6 +69,9 @@ impl Hidden {
                 step_dph: step_dph * k,
             },
             Hidden::RateSquared { coeff } => Hidden::RateSquared { coeff: coeff * k },
+            Hidden::Shaped { shape } => Hidden::Shaped {
+                shape: shape.scaled(k),
+            },
         }
     }
 
@@ -80,6 +91,7 @@ impl Hidden {
                 .iter()
                 .map(|r| coeff * (60.0 * r).powi(2))
                 .collect(),
+            Hidden::Shaped { shape } => shape.bias_effect(tr),
             _ => vec![0.0; tr.t_s.len()],
         }
     }
@@ -108,6 +120,7 @@ impl Hidden {
             Hidden::RateSquared { coeff } => {
                 format!("rate_squared {} °/h per (°C/min)²", num(*coeff))
             }
+            Hidden::Shaped { shape } => shape.describe(),
         }
     }
 }

@@ -44,6 +44,13 @@
 //!   3…10; nothing (clean); or one of two effects outside the library, whose right verdict
 //!   is `unexplained_structure`: a bias step at a time unrelated to temperature (uniform in
 //!   the middle 60 % of the record) and a term a·(dT/dt)², dT/dt in °C/min.
+//! - **Other forms** (`--other-shapes`, [`Shape`]): warm-up, aging, mode hop, backscatter,
+//!   periodic, hysteresis and gradient lag hidden in a form the term library does not have
+//!   (two exponentials or a power law from power-on; logarithmic or square-root aging; a
+//!   relay whose step settles over 1–10 min; a ripple in temperature or time with its
+//!   second harmonic; a loop with rounded corners; a gradient built through two lags), at
+//!   the same drawn D on the same conditions. The diagnosis scans the library's exact
+//!   shapes; a real gyro's effects need not have them.
 //!
 //! D is the matched set's (see the parent module's doc): D² = ēᵀ(Σ⁻¹ −
 //! Σ⁻¹X(XᵀΣ⁻¹X)⁻¹XᵀΣ⁻¹)ē, ē the effect's means on the diagnosis' 100 s blocks, X its baseline
@@ -65,13 +72,15 @@ mod hidden;
 mod noise;
 mod report;
 mod score;
+mod shapes;
 #[cfg(test)]
 mod tests;
 mod thermal;
 
-pub use gen::{build_case, Case, Conditions};
+pub use gen::{build_case, build_case_in, Case, Conditions};
 pub use hidden::Hidden;
 pub use report::{calibration_png, calibration_png_of, mismatch_report_markdown};
+pub use shapes::Shape;
 
 use std::path::Path;
 
@@ -159,6 +168,8 @@ pub struct MismatchOptions {
     pub alpha: f64,
     /// Run only these kinds; empty: every case. Each case keeps its number.
     pub only: Vec<Kind>,
+    /// Hide each library family that has one in a form other than its term ([`Shape`]).
+    pub other_shapes: bool,
 }
 
 impl MismatchOptions {
@@ -172,6 +183,7 @@ impl MismatchOptions {
             keep: false,
             alpha: Options::default().alpha,
             only: Vec::new(),
+            other_shapes: false,
         }
     }
 
@@ -209,6 +221,9 @@ pub struct MismatchResult {
     pub kind: Kind,
     /// The conditions present (for the per-condition counts).
     pub conditions: Vec<String>,
+    /// The form of a library mechanism hidden in another form ([`Shape::form`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub form: Option<&'static str>,
     /// The scored outcome (`profile` describes every condition drawn).
     pub result: CaseResult,
 }
@@ -239,7 +254,7 @@ pub fn run_mismatched(
     opts.plan()
         .into_par_iter()
         .map(|(id, kind)| {
-            let case = build_case(id, kind, opts.seed, &model)?;
+            let case = build_case_in(id, kind, opts.seed, &model, opts.other_shapes)?;
             let csv = out_dir.join(format!("mismatched{id:04}.csv"));
             let truth = out_dir.join(format!("mismatched{id:04}.truth.json"));
             case.recording.write_csv(&csv)?;
@@ -272,6 +287,10 @@ pub fn run_mismatched(
             Ok(MismatchResult {
                 kind,
                 conditions: case.conditions.tags(),
+                form: match &case.hidden {
+                    Hidden::Shaped { shape } => Some(shape.form()),
+                    _ => None,
+                },
                 result: score::score(&case, &d, secs, opts.alpha),
             })
         })

@@ -100,7 +100,11 @@ pub fn mismatch_report_markdown(results: &[MismatchResult]) -> String {
         let ok = set.iter().filter(|r| r.predicted == r.truth).count();
         let _ = writeln!(o, "| {name} | {} |", pct(ok, set.len()));
     }
-    let correct: Vec<&&CaseResult> = library.iter().filter(|r| r.predicted == r.truth).collect();
+    // (A mechanism hidden in another form has no parameter to score: not counted.)
+    let correct: Vec<&&CaseResult> = library
+        .iter()
+        .filter(|r| r.predicted == r.truth && r.param_ok.is_some())
+        .collect();
     let pok = correct.iter().filter(|r| r.param_ok == Some(true)).count();
     let _ = writeln!(
         o,
@@ -144,6 +148,8 @@ pub fn mismatch_report_markdown(results: &[MismatchResult]) -> String {
         secs.get(secs.len() / 2).copied().unwrap_or(0.0),
         secs.last().copied().unwrap_or(0.0)
     );
+
+    forms_table(&mut o, results);
 
     let _ = writeln!(
         o,
@@ -255,6 +261,61 @@ pub fn mismatch_report_markdown(results: &[MismatchResult]) -> String {
         let _ = writeln!(o, "| {} | {} |", row.name(), cells.join(" | "));
     }
     o
+}
+
+/// Top-1 by form, D ≥ 6 and all, when library mechanisms were hidden in other forms
+/// (`--other-shapes`); nothing otherwise.
+fn forms_table(o: &mut String, results: &[MismatchResult]) {
+    let mut forms: Vec<&str> = results.iter().filter_map(|r| r.form).collect();
+    if forms.is_empty() {
+        return;
+    }
+    forms.sort_unstable();
+    forms.dedup();
+    let _ = writeln!(
+        o,
+        "\nMechanisms hidden in a form other than the library's term (top-1 correct, with the \
+         most frequent wrong verdict):\n\n| form | D ≥ 6 | all | wrong verdicts |\n|---|---|---|---|"
+    );
+    for form in forms {
+        let rs: Vec<&CaseResult> = results
+            .iter()
+            .filter(|r| r.form == Some(form))
+            .map(|r| &r.result)
+            .collect();
+        let ok = |v: &[&CaseResult]| v.iter().filter(|r| r.predicted == r.truth).count();
+        let hi: Vec<&CaseResult> = rs
+            .iter()
+            .copied()
+            .filter(|r| r.detectability >= 6.0)
+            .collect();
+        let mut wrong: Vec<&str> = rs
+            .iter()
+            .filter(|r| r.predicted != r.truth)
+            .map(|r| r.predicted.name())
+            .collect();
+        wrong.sort_unstable();
+        let mut counts: Vec<(usize, &str)> = Vec::new();
+        for w in wrong {
+            match counts.last_mut() {
+                Some((k, name)) if *name == w => *k += 1,
+                _ => counts.push((1, w)),
+            }
+        }
+        counts.sort_by_key(|c| std::cmp::Reverse(c.0));
+        let wrong: Vec<String> = counts.iter().map(|(k, n)| format!("{n} {k}")).collect();
+        let _ = writeln!(
+            o,
+            "| {form} | {} | {} | {} |",
+            pct(ok(&hi), hi.len()),
+            pct(ok(&rs), rs.len()),
+            if wrong.is_empty() {
+                "–".to_string()
+            } else {
+                wrong.join(", ")
+            }
+        );
+    }
 }
 
 /// Draws the calibration on the clean recordings of a mismatched run (see

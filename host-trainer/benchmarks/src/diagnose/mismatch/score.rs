@@ -31,15 +31,21 @@ pub(super) fn score(case: &Case, d: &Diagnosis, seconds: f64, alpha: f64) -> Cas
         p_values: PValues::of(d),
         alpha,
     };
-    let Hidden::Library { term } = &case.hidden else {
-        return r;
+    let mechanism = match &case.hidden {
+        Hidden::Library { term } => term.mechanism(),
+        Hidden::Shaped { shape } => shape.family().mechanism(),
+        _ => return r,
     };
     r.p_values.true_family_alone = d
         .evidence
         .candidates
         .iter()
-        .find(|c| c.mechanism == term.mechanism())
+        .find(|c| c.mechanism == mechanism)
         .map(|c| c.p_value_alone);
+    // A form other than the term has no parameter comparable with the finding's.
+    let Hidden::Library { term } = &case.hidden else {
+        return r;
+    };
     if r.predicted != r.truth {
         return r;
     }

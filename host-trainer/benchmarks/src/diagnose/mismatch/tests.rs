@@ -237,6 +237,46 @@ fn cases_reach_their_detectability() {
     }
 }
 
+/// With `other_shapes` the seven families that have another form hide it, labelled with
+/// their mechanism, at the same drawn D (linear in its amplitude) and on the same conditions;
+/// the three that act through the reading or the noise keep their term and recording.
+#[test]
+fn other_shapes_keep_the_draw_and_the_mechanism() {
+    let model = PhysicsModel::paper();
+    for (id, f) in Family::ALL.into_iter().enumerate() {
+        let kind = Kind::Library(f);
+        let lib = build_case(id, kind, 5, &model).expect("case");
+        let other = build_case_in(id, kind, 5, &model, true).expect("case");
+        assert_eq!(other.hidden.label(), Label::Mechanism(f.mechanism()));
+        assert_eq!(other.target_d, lib.target_d, "{}", f.name());
+        let Hidden::Shaped { shape } = &other.hidden else {
+            assert!(matches!(
+                f,
+                Family::SensorLag | Family::TempQuantization | Family::Heteroscedastic
+            ));
+            assert_eq!(other.hidden, lib.hidden);
+            assert_eq!(other.recording, lib.recording);
+            continue;
+        };
+        assert_eq!(shape.family(), f);
+        assert_eq!(other.conditions, lib.conditions, "{}", f.name());
+        assert!(other.describe().contains(shape.form()));
+        let prep = prepare(&other.recording).expect("prepares");
+        let metric = Metric::new(&prep, &model, &other.conditions.noise)
+            .expect("metric")
+            .expect("positive definite");
+        let tr = &other.trajectory;
+        let d = metric.d(&prep, &other.hidden.bias_effect(tr));
+        let d2 = metric.d(&prep, &other.hidden.scaled(2.0).bias_effect(tr));
+        assert!(
+            (d / other.target_d - 1.0).abs() < 1e-6,
+            "{}: D {d}",
+            f.name()
+        );
+        assert!((d2 / d - 2.0).abs() < 1e-9, "{}", f.name());
+    }
+}
+
 /// The two effects outside the library are labelled `unexplained`, the verdict that names
 /// structure without a library term; a clean case `none`.
 #[test]
@@ -281,6 +321,7 @@ fn report_and_figure() {
     let r = |id: usize, kind: Kind, truth: Label, predicted: Label, p: f64| MismatchResult {
         kind,
         conditions: vec!["angle quantisation".into()],
+        form: None,
         result: CaseResult {
             id,
             profile: String::new(),
