@@ -238,7 +238,8 @@ pub fn build_case(
 }
 
 /// [`build_case`], with `other_shapes` each library family that has one hidden in a form
-/// other than its term ([`Shape`]); the draws before the hidden effect are the same.
+/// other than its term ([`Shape`]), on the library twin's conditions and drawn D (unless
+/// one of the two has no D on a draw the other keeps, and draws again).
 pub fn build_case_in(
     id: usize,
     kind: Kind,
@@ -264,15 +265,19 @@ pub fn build_case_in(
         };
         let unit = match kind {
             Kind::Clean => Hidden::None,
-            Kind::Library(f) => match other_shapes
-                .then(|| Shape::draw(f, &mut rng, lo, hi))
-                .flatten()
-            {
-                Some(shape) => Hidden::Shaped { shape },
-                None => Hidden::Library {
-                    term: library_term(f, &mut rng, lo, hi),
-                },
-            },
+            Kind::Library(f) => {
+                // The form is drawn from a copy of the stream, so that the stream goes on
+                // as the library twin's does (its retries included).
+                let mut alt = rng.clone();
+                let term = library_term(f, &mut rng, lo, hi);
+                match other_shapes
+                    .then(|| Shape::draw(f, &mut alt, lo, hi))
+                    .flatten()
+                {
+                    Some(shape) => Hidden::Shaped { shape },
+                    None => Hidden::Library { term },
+                }
+            }
             Kind::Step => Hidden::Step {
                 time_s: (c.chamber.duration_s * uni(&mut rng, 0.2, 0.8)).round(),
                 step_dph: sign,

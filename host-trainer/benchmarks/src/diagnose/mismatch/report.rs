@@ -274,8 +274,8 @@ fn forms_table(o: &mut String, results: &[MismatchResult]) {
     forms.dedup();
     let _ = writeln!(
         o,
-        "\nMechanisms hidden in a form other than the library's term (top-1 correct, with the \
-         most frequent wrong verdict):\n\n| form | D ≥ 6 | all | wrong verdicts |\n|---|---|---|---|"
+        "\nMechanisms hidden in a form other than the library's term (top-1 correct, and the \
+         wrong verdicts, most frequent first):\n\n| form | D ≥ 6 | all | wrong verdicts |\n|---|---|---|---|"
     );
     for form in forms {
         let rs: Vec<&CaseResult> = results

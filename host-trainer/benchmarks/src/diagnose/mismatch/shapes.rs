@@ -97,12 +97,13 @@ pub enum Shape {
         /// φ₂, rad.
         phase2_rad: f64,
     },
-    /// The mean of three play operators of widths w/4, w/2 and w: a loop with rounded
-    /// corners (a spread of coercive widths, Preisach-like).
+    /// The mean of three play operators of widths w/4, w/2 and w (each ±height when
+    /// saturated): after a reversal the output bends into saturation in three steps
+    /// instead of one, as a spread of coercive widths makes it (Preisach-like).
     HysteresisRounded {
         /// w, °C.
         width_c: f64,
-        /// Half the gap between the widest play's branches, °/h.
+        /// Half the gap between the saturated branches, °/h.
         height_dph: f64,
     },
     /// gain·G₂ with two cascaded lags of τ/2 (τ/2·Ġ₁ = −G₁ + Ṫ, τ/2·Ġ₂ = −G₂ + G₁): a
@@ -348,8 +349,10 @@ fn with_harmonic(x: &[f64], period: f64, a: f64, phase: f64, h: f64, phase2: f64
         .collect()
 }
 
-/// x through a first-order lag of time constant τ (exact for x held between samples),
-/// starting at x's first value.
+/// x through a first-order lag of time constant τ, starting at x's first value; each
+/// sample's x is taken as held over the step before it (1 s steps against τ of minutes).
+/// Written here because the physics crate's lags are the terms' own state, not a filter of
+/// an arbitrary series.
 fn lag_in_time(x: &[f64], t: &[f64], tau_s: f64) -> Vec<f64> {
     let mut y = x.first().copied().unwrap_or(0.0);
     let mut prev_t = t.first().copied().unwrap_or(0.0);
@@ -361,4 +364,117 @@ fn lag_in_time(x: &[f64], t: &[f64], tau_s: f64) -> Vec<f64> {
             y
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A record of `n` s at 1 Hz whose temperature is `temp(t)`.
+    fn trajectory(n: usize, temp: impl Fn(f64) -> f64) -> Trajectory {
+        let t_s: Vec<f64> = (0..n).map(|i| i as f64).collect();
+        let node_c: Vec<f64> = t_s.iter().map(|&t| temp(t)).collect();
+        let dnode_c_per_s = t_s.iter().map(|&t| temp(t + 0.5) - temp(t - 0.5)).collect();
+        Trajectory {
+            air_c: node_c.clone(),
+            t_s,
+            node_c,
+            dnode_c_per_s,
+        }
+    }
+
+    /// Each form against its closed form: aging at one day, the settling relay's step
+    /// response, the rounded loop's saturation and its first branch, the two-lag gradient's
+    /// steady state, the warm-ups at power-on.
+    #[test]
+    fn forms_follow_their_definitions() {
+        let day = trajectory(86_401, |_| 20.0);
+        let last = |v: Vec<f64>| *v.last().expect("samples");
+        let log = Shape::AgingLog {
+            amplitude_dph: 2.0,
+            tau_s: 7200.0,
+        };
+        assert!((last(log.bias_effect(&day)) - 2.0).abs() < 1e-12);
+        let sqrt = Shape::AgingSqrt { amplitude_dph: 3.0 };
+        assert!((last(sqrt.bias_effect(&day)) - 3.0).abs() < 1e-12);
+        let two = Shape::WarmupTwoExp {
+            amplitude_dph: 1.5,
+            tau1_s: 600.0,
+            tau2_s: 6000.0,
+            w: 0.4,
+        };
+        let e = two.bias_effect(&day);
+        assert!((e[0] - 1.5).abs() < 1e-12);
+        let want = 1.5 * (0.4 * (-1.0f64).exp() + 0.6 * (-0.1f64).exp());
+        assert!((e[600] - want).abs() < 1e-12);
+        let pow = Shape::WarmupPower {
+            amplitude_dph: 1.0,
+            tau_s: 1000.0,
+            p: 1.0,
+        };
+        assert!((pow.bias_effect(&day)[1000] - 0.5).abs() < 1e-12);
+
+        // 0 → 10 °C at 0.01 °C/s, then held: the relay switches at 5 °C (t = 500 s) and its
+        // step settles with τ.
+        let ramp = trajectory(3000, |t| (0.01 * t).clamp(0.0, 10.0));
+        let hop = Shape::ModeHopSettling {
+            temp_c: 5.0,
+            step_dph: 1.0,
+            hysteresis_c: 1.0,
+            settle_s: 200.0,
+        };
+        let e = hop.bias_effect(&ramp);
+        assert!(e[500].abs() < 1e-9, "before the switch: {}", e[500]);
+        let at_tau = e[701];
+        assert!((at_tau - (1.0 - (-1.0f64).exp())).abs() < 0.01, "{at_tau}");
+        assert!((e[2999] - 1.0).abs() < 1e-3);
+
+        // Up 0 → 20 °C, down to 0: the loop saturates at ±height, and after the reversal
+        // the branch leaves at the plays' mean slope (8 + 4 + 2)/(3w) per °C.
+        let cycle = trajectory(4001, |t| {
+            if t <= 2000.0 {
+                0.01 * t
+            } else {
+                40.0 - 0.01 * t
+            }
+        });
+        let loop_ = Shape::HysteresisRounded {
+            width_c: 8.0,
+            height_dph: 1.0,
+        };
+        let e = loop_.bias_effect(&cycle);
+        assert!((e[2000] - 1.0).abs() < 1e-9 && (e[4000] + 1.0).abs() < 1e-9);
+        let slope = (e[2000] - e[2050]) / 0.5;
+        assert!((slope - 14.0 / (3.0 * 8.0)).abs() < 1e-9, "{slope}");
+
+        // A steady 0.01 °C/s: G₂ settles to Ṫ, as the one-lag term's G does.
+        let steady = trajectory(40_000, |t| 0.01 * t);
+        let grad = Shape::GradientTwoLags {
+            tau_s: 1000.0,
+            gain: 2.0,
+        };
+        assert!((last(grad.bias_effect(&steady)) - 0.02).abs() < 1e-6);
+    }
+
+    /// Both forms of warm-up and of aging are drawn, each labelled with its family; the
+    /// three families kept in the library form draw nothing and leave the stream alone.
+    #[test]
+    fn draws_cover_every_form() {
+        use rand::SeedableRng;
+        let mut forms = std::collections::BTreeSet::new();
+        for seed in 0..40 {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            for f in Family::ALL {
+                let before = rng.clone();
+                match Shape::draw(f, &mut rng, -10.0, 50.0) {
+                    Some(s) => {
+                        assert_eq!(s.family(), f);
+                        forms.insert(s.form());
+                    }
+                    None => assert_eq!(rng, before, "{}", f.name()),
+                }
+            }
+        }
+        assert_eq!(forms.len(), 9, "{forms:?}");
+    }
 }
