@@ -48,9 +48,9 @@
 //!   periodic, hysteresis and gradient lag hidden in a form the term library does not have
 //!   (two exponentials or a power law from power-on; logarithmic or square-root aging; a
 //!   relay whose step settles over 1–10 min; a ripple in temperature or time with its
-//!   second harmonic; a loop with rounded corners; a gradient built through two lags), at
-//!   the same drawn D on the same conditions. The diagnosis scans the library's exact
-//!   shapes; a real gyro's effects need not have them.
+//!   second harmonic; a loop that bends into saturation in three steps; a gradient built
+//!   through two lags), at the same drawn D on the same conditions. The diagnosis scans
+//!   the library's exact shapes; a real gyro's effects need not have them.
 //!
 //! D is the matched set's (see the parent module's doc): D² = ēᵀ(Σ⁻¹ −
 //! Σ⁻¹X(XᵀΣ⁻¹X)⁻¹XᵀΣ⁻¹)ē, ē the effect's means on the diagnosis' 100 s blocks, X its baseline
