@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use clap::ValueEnum;
 use rlg_benchmarks::diagnose::mismatch::{
     calibration_png, calibration_png_of, mismatch_report_markdown, run_mismatched, Kind,
-    MismatchOptions,
+    MismatchOptions, Variant,
 };
 use rlg_benchmarks::diagnose::{report_markdown, run_benchmark, BenchOptions, CaseResult, Label};
 
@@ -56,6 +56,11 @@ pub struct BenchmarkDiagnoseArgs {
     /// form.
     #[arg(long)]
     pub other_shapes: bool,
+    /// Mismatched set only: drive each hidden mechanism of the bias by the body's other node
+    /// (the core when the sensor is on the case, the case when it is on the core), not the
+    /// node the temperature sensor reads; the base bias stays on the sensor's node.
+    #[arg(long)]
+    pub effect_elsewhere: bool,
 }
 
 /// The α given on the command line, checked against what the bootstrap resolves.
@@ -79,8 +84,8 @@ pub fn run(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
         return run_mismatched_set(args);
     }
     anyhow::ensure!(
-        !args.other_shapes,
-        "--other-shapes applies to --set mismatched only"
+        !args.other_shapes && !args.effect_elsewhere,
+        "--other-shapes and --effect-elsewhere apply to --set mismatched only"
     );
     let mut opts = if args.quick {
         BenchOptions::quick(args.seed)
@@ -133,7 +138,10 @@ fn run_mismatched_set(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
         MismatchOptions::full(args.seed)
     };
     opts.keep = args.keep;
-    opts.other_shapes = args.other_shapes;
+    opts.variant = Variant {
+        other_shapes: args.other_shapes,
+        effect_elsewhere: args.effect_elsewhere,
+    };
     for name in &args.only {
         opts.only.push(Kind::from_name(name).ok_or_else(|| {
             let known: Vec<&str> = rlg_diagnose::Family::ALL.iter().map(|f| f.name()).collect();

@@ -16,7 +16,8 @@ use crate::diagnose::BenchError;
 use rlg_diagnose::prepare::{prepare, PhysicsModel};
 use rlg_eval::paper::eq11;
 use rlg_io::recording::Recording;
-use rlg_physics::{contribution, Axis, Term};
+use rlg_physics::{contribution, Axis, Role, Term};
+use std::borrow::Cow;
 
 /// Sample period, s.
 pub(super) const DT_S: f64 = 1.0;
@@ -186,6 +187,8 @@ pub struct Case {
     pub energy_in_span: f64,
     /// Peak of the effect over the 1 s noise σ.
     pub peak_over_sigma1: f64,
+    /// The hidden mechanism is driven by the body's other node ([`Variant::effect_elsewhere`]).
+    pub effect_elsewhere: bool,
     /// Chamber and body history.
     pub trajectory: Trajectory,
     /// What the diagnosis reads.
@@ -201,8 +204,13 @@ impl Case {
         } else {
             "no T noise".into()
         };
+        let node = match (self.effect_elsewhere, c.body.sensor_on_core) {
+            (false, _) => "",
+            (true, true) => " on the case",
+            (true, false) => " on the core",
+        };
         format!(
-            "{}; {}; {tn}; {}; hidden: {}",
+            "{}; {}; {tn}; {}; hidden: {}{node}",
             describe_chamber(&c.chamber),
             describe_body(&c.body),
             describe_noise(&c.noise),
@@ -234,19 +242,46 @@ pub fn build_case(
     seed: u64,
     model: &PhysicsModel,
 ) -> Result<Case, BenchError> {
-    build_case_in(id, kind, seed, model, false)
+    build_case_in(id, kind, seed, model, Variant::default())
 }
 
-/// [`build_case`], with `other_shapes` each library family that has one hidden in a form
-/// other than its term ([`Shape`]), on the library twin's conditions and drawn D (unless
-/// one of the two has no D on a draw the other keeps, and draws again).
+/// How a case departs from the default set; each keeps the default case's conditions and
+/// drawn D (unless the two differ in having a D on a draw, which is then drawn again).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Variant {
+    /// Each library family that has one hidden in a form other than its term ([`Shape`]).
+    pub other_shapes: bool,
+    /// A hidden mechanism of the bias driven by the body's other node, not the sensor's
+    /// (the core when the sensor is on the case, the case when it is on the core).
+    pub effect_elsewhere: bool,
+}
+
+/// What a hidden effect is driven by: the sensor's node, or with `elsewhere` the body's
+/// other node for a library mechanism of the bias (the step in time and the (dT/dt)² term
+/// outside the library stay on the sensor's node; sensor and noise terms act through the
+/// reading and the noise).
+fn effect_drive<'a>(tr: &'a Trajectory, hidden: &Hidden, elsewhere: bool) -> Cow<'a, Trajectory> {
+    let moves = match hidden {
+        Hidden::Library { term } => term.role() == Role::Bias,
+        Hidden::Shaped { .. } => true,
+        _ => false,
+    };
+    if elsewhere && moves {
+        Cow::Owned(tr.at_other_node())
+    } else {
+        Cow::Borrowed(tr)
+    }
+}
+
+/// [`build_case`] in a [`Variant`].
 pub fn build_case_in(
     id: usize,
     kind: Kind,
     seed: u64,
     model: &PhysicsModel,
-    other_shapes: bool,
+    variant: Variant,
 ) -> Result<Case, BenchError> {
+    let other_shapes = variant.other_shapes;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream(id as u64);
     let target = uni(&mut rng, 3.0, 10.0);
@@ -287,7 +322,9 @@ pub fn build_case_in(
         let read = reading(&tr, &c, &unit);
         if kind == Kind::Clean {
             let stats = (0.0, 0.0, 0.0);
-            return Ok(assemble(id, kind, c, unit, 0.0, 0.0, stats, tr, read));
+            return Ok(assemble(
+                id, kind, c, unit, 0.0, 0.0, stats, tr, read, false,
+            ));
         }
         let prep = prepare(recording(id, &tr, vec![0.0; tr.t_s.len()], read.clone()))?;
         let Some(metric) = Metric::new(&prep, model, &c.noise)? else {
@@ -325,7 +362,7 @@ pub fn build_case_in(
                 let h = unit.scaled(k);
                 let d = hetero_d(&h, &tr, &prep, &c.noise).unwrap_or(f64::NAN);
                 let stats = (d, 0.0, c.noise.white_sigma(DT_S) * k * xmax / s1);
-                return Ok(assemble(id, kind, c, h, target, d, stats, tr, read));
+                return Ok(assemble(id, kind, c, h, target, d, stats, tr, read, false));
             }
             Hidden::Library {
                 term: Term::SensorLag { .. } | Term::TempQuantization { .. },
@@ -347,7 +384,18 @@ pub fn build_case_in(
                 let ok = levels.iter().all(|s| (0.1..=5.0).contains(&(s * k)));
                 c.noise = c.noise.scaled(k);
                 let stats = (marg / k, span, peak / (s1 * k));
-                let case = assemble(id, kind, c, unit, target, d_unit / k, stats, tr, read);
+                let case = assemble(
+                    id,
+                    kind,
+                    c,
+                    unit,
+                    target,
+                    d_unit / k,
+                    stats,
+                    tr,
+                    read,
+                    false,
+                );
                 if ok {
                     return Ok(case);
                 }
@@ -358,7 +406,7 @@ pub fn build_case_in(
             _ => {}
         }
         // D is linear in the amplitude: one ratio.
-        let e = unit.bias_effect(&tr);
+        let e = unit.bias_effect(&effect_drive(&tr, &unit, variant.effect_elsewhere));
         let d_unit = metric.d(&prep, &e);
         if !(d_unit > 0.0 && d_unit.is_finite()) {
             continue;
@@ -378,6 +426,7 @@ pub fn build_case_in(
             stats,
             tr,
             read,
+            variant.effect_elsewhere,
         ));
     }
     fallback.ok_or_else(|| BenchError::Truth {
@@ -399,8 +448,12 @@ fn assemble(
     (marginal, energy_in_span, peak_over_sigma1): (f64, f64, f64),
     tr: Trajectory,
     read: Vec<f64>,
+    elsewhere: bool,
 ) -> Case {
-    let mut clean = hidden.bias_effect(&tr);
+    let drive = effect_drive(&tr, &hidden, elsewhere);
+    let effect_elsewhere = matches!(drive, Cow::Owned(_));
+    let mut clean = hidden.bias_effect(&drive);
+    drop(drive);
     for b in &c.bias {
         let v = contribution(b, &tr.t_s, &tr.node_c, &tr.dnode_c_per_s);
         clean.iter_mut().zip(&v).for_each(|(o, x)| *o += x);
@@ -425,6 +478,7 @@ fn assemble(
         marginal,
         energy_in_span,
         peak_over_sigma1,
+        effect_elsewhere,
         trajectory: tr,
         recording,
     }

@@ -51,6 +51,12 @@
 //!   second harmonic; a loop that bends into saturation in three steps; a gradient built
 //!   through two lags), at the same drawn D on the same conditions. The diagnosis scans
 //!   the library's exact shapes; a real gyro's effects need not have them.
+//! - **Effects elsewhere** (`--effect-elsewhere`): each library mechanism of the bias
+//!   (or its other form) driven by the body's other node, not the sensor's: the core when
+//!   the sensor is on the case, the case when it is on the core, at the same drawn D on the
+//!   same conditions. A real gyro's mechanisms live in the laser block and its readout,
+//!   its sensor somewhere else on the body; the base bias stays on the sensor's node, as
+//!   the model the diagnosis is given is fitted to the sensor's temperature.
 //!
 //! D is the matched set's (see the parent module's doc): D² = ēᵀ(Σ⁻¹ −
 //! Σ⁻¹X(XᵀΣ⁻¹X)⁻¹XᵀΣ⁻¹)ē, ē the effect's means on the diagnosis' 100 s blocks, X its baseline
@@ -77,7 +83,7 @@ mod shapes;
 mod tests;
 mod thermal;
 
-pub use gen::{build_case, build_case_in, Case, Conditions};
+pub use gen::{build_case, build_case_in, Case, Conditions, Variant};
 pub use hidden::Hidden;
 pub use report::{calibration_png, calibration_png_of, mismatch_report_markdown};
 pub use shapes::Shape;
@@ -168,8 +174,8 @@ pub struct MismatchOptions {
     pub alpha: f64,
     /// Run only these kinds; empty: every case. Each case keeps its number.
     pub only: Vec<Kind>,
-    /// Hide each library family that has one in a form other than its term ([`Shape`]).
-    pub other_shapes: bool,
+    /// Which variant of the set: mechanisms in other forms, driven by the other node.
+    pub variant: Variant,
 }
 
 impl MismatchOptions {
@@ -183,7 +189,7 @@ impl MismatchOptions {
             keep: false,
             alpha: Options::default().alpha,
             only: Vec::new(),
-            other_shapes: false,
+            variant: Variant::default(),
         }
     }
 
@@ -254,7 +260,7 @@ pub fn run_mismatched(
     opts.plan()
         .into_par_iter()
         .map(|(id, kind)| {
-            let case = build_case_in(id, kind, opts.seed, &model, opts.other_shapes)?;
+            let case = build_case_in(id, kind, opts.seed, &model, opts.variant)?;
             let csv = out_dir.join(format!("mismatched{id:04}.csv"));
             let truth = out_dir.join(format!("mismatched{id:04}.truth.json"));
             case.recording.write_csv(&csv)?;

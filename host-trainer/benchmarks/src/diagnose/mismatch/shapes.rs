@@ -374,9 +374,11 @@ mod tests {
     fn trajectory(n: usize, temp: impl Fn(f64) -> f64) -> Trajectory {
         let t_s: Vec<f64> = (0..n).map(|i| i as f64).collect();
         let node_c: Vec<f64> = t_s.iter().map(|&t| temp(t)).collect();
-        let dnode_c_per_s = t_s.iter().map(|&t| temp(t + 0.5) - temp(t - 0.5)).collect();
+        let dnode_c_per_s: Vec<f64> = t_s.iter().map(|&t| temp(t + 0.5) - temp(t - 0.5)).collect();
         Trajectory {
             air_c: node_c.clone(),
+            other_c: node_c.clone(),
+            dother_c_per_s: dnode_c_per_s.clone(),
             t_s,
             node_c,
             dnode_c_per_s,

@@ -246,7 +246,11 @@ fn other_shapes_keep_the_draw_and_the_mechanism() {
     for (id, f) in Family::ALL.into_iter().enumerate() {
         let kind = Kind::Library(f);
         let lib = build_case(id, kind, 5, &model).expect("case");
-        let other = build_case_in(id, kind, 5, &model, true).expect("case");
+        let variant = Variant {
+            other_shapes: true,
+            ..Variant::default()
+        };
+        let other = build_case_in(id, kind, 5, &model, variant).expect("case");
         assert_eq!(other.hidden.label(), Label::Mechanism(f.mechanism()));
         assert_eq!(other.target_d, lib.target_d, "{}", f.name());
         let Hidden::Shaped { shape } = &other.hidden else {
@@ -530,4 +534,69 @@ fn slow_wander_of_a_clean_record_is_not_aging() {
         "{:#?}",
         d.evidence.notes
     );
+}
+
+/// With `effect_elsewhere` a mechanism of the bias is driven by the body's other node: on the
+/// default case's conditions and drawn D, the recording's rate is the default one less the
+/// effect on the sensor's node plus the effect on the other node (the noise is the same
+/// draw), that effect has the drawn D in the sensor's metric, and the reading is unchanged.
+/// Sensor and noise terms, the step in time and the clean cases are unchanged.
+#[test]
+fn effect_elsewhere_is_driven_by_the_other_node() {
+    let model = PhysicsModel::paper();
+    let variant = Variant {
+        effect_elsewhere: true,
+        ..Variant::default()
+    };
+    let mut kinds: Vec<Kind> = Family::ALL.into_iter().map(Kind::Library).collect();
+    kinds.extend([Kind::Step, Kind::Clean]);
+    let mut moved = 0;
+    for (id, kind) in kinds.into_iter().enumerate() {
+        let base = build_case(id, kind, 6, &model).expect("case");
+        let alt = build_case_in(id, kind, 6, &model, variant).expect("case");
+        assert_eq!(alt.conditions, base.conditions, "{kind:?}");
+        assert_eq!(alt.target_d, base.target_d, "{kind:?}");
+        assert_eq!(alt.recording.temp_c, base.recording.temp_c, "{kind:?}");
+        let tr = &alt.trajectory;
+        let bias_term = matches!(
+            kind,
+            Kind::Library(f) if !matches!(
+                f,
+                Family::SensorLag | Family::TempQuantization | Family::Heteroscedastic
+            )
+        );
+        if !bias_term {
+            assert!(!alt.effect_elsewhere, "{kind:?}");
+            assert_eq!(alt.recording, base.recording, "{kind:?}");
+            continue;
+        }
+        moved += 1;
+        assert!(alt.effect_elsewhere && alt.describe().contains(" on the c"));
+        let here = alt.hidden.bias_effect(tr);
+        let there = alt.hidden.bias_effect(&tr.at_other_node());
+        let base_here = base.hidden.bias_effect(&base.trajectory);
+        // The same noise draw: the rates differ by the effects alone (where the rate is a
+        // count, to within two counts: each end of a sample's count is rounded).
+        let tol = 1e-9 + 2.0 * alt.conditions.noise.quantum_arcsec / DT_S;
+        for i in (0..here.len()).step_by(97) {
+            let want = base.recording.rate_dph[i] - base_here[i] + there[i];
+            assert!(
+                (alt.recording.rate_dph[i] - want).abs() <= tol,
+                "{kind:?} sample {i}"
+            );
+        }
+        // A time-only term is the same on either node; a thermal one is not.
+        let differs = here.iter().zip(&there).any(|(a, b)| (a - b).abs() > 1e-12);
+        let Kind::Library(f) = kind else {
+            unreachable!()
+        };
+        assert_eq!(differs, f.is_thermal(), "{kind:?}");
+        let prep = prepare(&alt.recording).expect("prepares");
+        let metric = Metric::new(&prep, &model, &alt.conditions.noise)
+            .expect("metric")
+            .expect("positive definite");
+        let d = metric.d(&prep, &there);
+        assert!((d / alt.target_d - 1.0).abs() < 1e-6, "{kind:?}: D {d}");
+    }
+    assert_eq!(moved, 7);
 }

@@ -289,6 +289,26 @@ pub struct Trajectory {
     pub node_c: Vec<f64>,
     /// Its time derivative, °C/s (from the model's equations, not a difference).
     pub dnode_c_per_s: Vec<f64>,
+    /// Temperature of the body's other node (the core when the sensor is on the case, the
+    /// case when it is on the core), °C.
+    pub other_c: Vec<f64>,
+    /// Its time derivative, °C/s.
+    pub dother_c_per_s: Vec<f64>,
+}
+
+impl Trajectory {
+    /// The same history with the other node in the sensor node's place: what an effect of
+    /// that node sees.
+    pub fn at_other_node(&self) -> Trajectory {
+        Trajectory {
+            t_s: self.t_s.clone(),
+            air_c: self.air_c.clone(),
+            node_c: self.other_c.clone(),
+            dnode_c_per_s: self.dother_c_per_s.clone(),
+            other_c: self.node_c.clone(),
+            dother_c_per_s: self.dnode_c_per_s.clone(),
+        }
+    }
 }
 
 /// Runs the chamber and body: air τ_a·ȧ = SP − a (plus the control error), case
@@ -326,12 +346,14 @@ pub fn run(chamber: &Chamber, body: &Body, dt_s: f64) -> Trajectory {
         y = step(t_on + i as f64 * dt_s, y);
     }
     let n = (chamber.duration_s / dt_s).round() as usize;
-    let node = if body.sensor_on_core { 2 } else { 1 };
+    let (node, other) = if body.sensor_on_core { (2, 1) } else { (1, 2) };
     let mut out = Trajectory {
         t_s: Vec::with_capacity(n),
         air_c: Vec::with_capacity(n),
         node_c: Vec::with_capacity(n),
         dnode_c_per_s: Vec::with_capacity(n),
+        other_c: Vec::with_capacity(n),
+        dother_c_per_s: Vec::with_capacity(n),
     };
     for i in 0..n {
         let t = i as f64 * dt_s;
@@ -340,8 +362,11 @@ pub fn run(chamber: &Chamber, body: &Body, dt_s: f64) -> Trajectory {
         }
         out.t_s.push(t);
         out.air_c.push(air(t, y[0]));
+        let dy = rhs(t, y);
         out.node_c.push(y[node]);
-        out.dnode_c_per_s.push(rhs(t, y)[node]);
+        out.dnode_c_per_s.push(dy[node]);
+        out.other_c.push(y[other]);
+        out.dother_c_per_s.push(dy[other]);
     }
     out
 }
