@@ -4,16 +4,13 @@ use std::collections::BTreeMap;
 
 use rayon::prelude::*;
 
-use super::candidates::{node_lag, Family};
+use super::candidates::Family;
 use super::linalg::{added_fit, dot, Basis};
 use super::noise::Whitener;
 use super::prepare::{DriveSeries, PhysicsModel, Prepared};
 use super::scan::{Point, Scan};
 use super::DiagnoseError;
 use rlg_physics::Term;
-
-/// A candidate's whitened fit gain, coefficients and baseline-orthogonal columns.
-type Fit = (f64, Vec<f64>, Vec<Vec<f64>>);
 
 /// Parabolic refinement of a maximum at grid index `i` of `f(u)`; returns u.
 pub(super) fn parabolic(u: &[f64], f: &[f64], i: usize) -> f64 {
@@ -79,11 +76,8 @@ pub(super) fn refine(
     i: usize,
 ) -> Result<(Term, BTreeMap<String, f64>), DiagnoseError> {
     let t_on = prep.full_drive.t_s[0];
-    // The family's points at the best point's node lag: the profiles of the other parameters
-    // are taken there, and the lag is then refined on its own (`refine_node_lag`).
-    let lag = node_lag(f, &points[i].nl);
     let idx: Vec<usize> = (0..points.len())
-        .filter(|&j| points[j].family == f && node_lag(f, &points[j].nl) == lag)
+        .filter(|&j| points[j].family == f)
         .collect();
     let mut unc = BTreeMap::new();
     let sigma2 =
@@ -128,32 +122,6 @@ pub(super) fn refine(
     let mut nl = points[i].nl.clone();
     let mut coef = s.coef[i].clone();
     let mut cp = s.cperp[i].clone();
-    let yw = s.basis.residual(&ar.whiten(&prep.y_b));
-    // The whitened fit gain, coefficients and baseline-orthogonal columns at `p`.
-    let fit_at = |p: &[f64]| -> Result<Fit, DiagnoseError> {
-        let cpr: Vec<Vec<f64>> = f
-            .columns(p, prep, model, mdrive, beta_b)?
-            .iter()
-            .map(|c| s.basis.residual(&ar.whiten(&prep.blocks(c))))
-            .collect();
-        let (d, a) = added_fit(&cpr, &yw);
-        Ok((d, a, cpr))
-    };
-    let mut best_d = s.drss[i];
-    if f == Family::ModeHop && lag != 0.0 {
-        // The lag first: it moves both switching temperatures by τ·dT/dt, which the fine
-        // grid of temperature and hysteresis below then follows.
-        refine_node_lag(
-            f,
-            &fit_at,
-            sigma2,
-            &mut nl,
-            &mut best_d,
-            &mut coef,
-            &mut cp,
-            &mut unc,
-        )?;
-    }
     if matches!(f, Family::ModeHop) {
         // 2-D grid: a fine local grid around the best coarse point (temperature ±1 coarse
         // step in sixths, switching hysteresis 0…4.5 °C in 0.25 °C), then the profile of
@@ -162,16 +130,25 @@ pub(super) fn refine(
         // detectability (measured).
         let all_t: Vec<f64> = idx.iter().map(|&j| points[j].nl[0]).collect();
         let (t0, dt) = (nl[0], grid_step(&all_t, nl[0]));
-        let node = nl[2];
         let fine: Vec<Vec<f64>> = (-6..=6)
             .flat_map(|a| {
-                (0..=18).map(move |b| vec![t0 + dt * f64::from(a) / 6.0, 0.25 * f64::from(b), node])
+                (0..=18).map(move |b| vec![t0 + dt * f64::from(a) / 6.0, 0.25 * f64::from(b)])
             })
             .collect();
-        let res: Vec<Fit> = fine
+        let yw = s.basis.residual(&ar.whiten(&prep.y_b));
+        let res: Vec<(f64, Vec<f64>, Vec<Vec<f64>>)> = fine
             .par_iter()
-            .map(|p| fit_at(p))
+            .map(|p| {
+                let cpr: Vec<Vec<f64>> = f
+                    .columns(p, prep, model, mdrive, beta_b)?
+                    .iter()
+                    .map(|c| s.basis.residual(&ar.whiten(&prep.blocks(c))))
+                    .collect();
+                let (d, a) = added_fit(&cpr, &yw);
+                Ok((d, a, cpr))
+            })
             .collect::<Result<_, DiagnoseError>>()?;
+        let mut best_d = s.drss[i];
         if let Some(k) = (0..res.len()).max_by(|&a, &b| res[a].0.total_cmp(&res[b].0)) {
             if res[k].0 > best_d {
                 best_d = res[k].0;
@@ -180,10 +157,9 @@ pub(super) fn refine(
                 cp.clone_from(&res[k].2);
             }
         }
-        // The coarse points count where they share the refined lag.
         let inside: Vec<&[f64]> = idx
             .iter()
-            .filter(|&&j| points[j].nl[2] == node && best_d - s.drss[j] <= sigma2)
+            .filter(|&&j| best_d - s.drss[j] <= sigma2)
             .map(|&j| &points[j].nl[..])
             .chain(
                 fine.iter()
@@ -213,32 +189,24 @@ pub(super) fn refine(
             .map(|v| if periodic { 1.0 / v } else { v.ln() })
             .collect();
         let ur = parabolic(&u, &gains, k);
-        let mut cand = nl.clone();
-        cand[0] = if periodic { 1.0 / ur } else { ur.exp() };
-        let (d, a, cpr) = fit_at(&cand)?;
+        let cand = if periodic { 1.0 / ur } else { ur.exp() };
+        let cols = f.columns(&[cand], prep, model, mdrive, beta_b)?;
+        let cpr: Vec<Vec<f64>> = cols
+            .iter()
+            .map(|c| s.basis.residual(&ar.whiten(&prep.blocks(c))))
+            .collect();
+        let yw = s.basis.residual(&ar.whiten(&prep.y_b));
+        let (d, a) = added_fit(&cpr, &yw);
         if d >= s.drss[i] {
-            nl = cand;
+            nl = vec![cand];
             coef = a;
             cp = cpr;
-            best_d = d;
         }
         let inside: Vec<f64> = (0..vals.len())
             .filter(|&j| s.drss[i] - gains[j] <= sigma2)
             .map(|j| vals[j])
             .collect();
         unc.insert(nl_names(f)[0].to_string(), half_range(&inside, &vals, k));
-        if f.has_node_lag() && lag != 0.0 {
-            refine_node_lag(
-                f,
-                &fit_at,
-                sigma2,
-                &mut nl,
-                &mut best_d,
-                &mut coef,
-                &mut cp,
-                &mut unc,
-            )?;
-        }
     }
     // Amplitude uncertainty from the whitened joint fit (Frisch–Waugh: the candidate's
     // columns orthogonal to the baseline carry its covariance σ²·(CᵀC)⁻¹).
@@ -262,55 +230,6 @@ pub(super) fn refine(
         unc.insert(name.to_string(), se);
     }
     Ok((f.term(&nl, &coef, t_on), unc))
-}
-
-/// The node's lag of a point refined over half an octave either side of the grid's (the
-/// midpoints to its neighbours on the octave grid `NODE_LAGS_S`) in eighths of an octave,
-/// the other parameters held: where the lag times the rate moves the driving temperature by
-/// tens of degrees, an octave's error moves a mode hop's switching by several (measured:
-/// misses at p 0.6–0.99 on the coarse grid). Updates the point, its fit and the lag's 1σ
-/// (the Δχ² ≤ 1 range of the profile, at least half a step).
-#[allow(clippy::too_many_arguments)]
-fn refine_node_lag(
-    f: Family,
-    fit_at: &(dyn Fn(&[f64]) -> Result<Fit, DiagnoseError> + Sync),
-    sigma2: f64,
-    nl: &mut [f64],
-    best_d: &mut f64,
-    coef: &mut Vec<f64>,
-    cp: &mut Vec<Vec<f64>>,
-    unc: &mut BTreeMap<String, f64>,
-) -> Result<(), DiagnoseError> {
-    let last = nl.len() - 1;
-    let lag = node_lag(f, nl);
-    let lags: Vec<f64> = (-4..=4)
-        .map(|k| lag * 2f64.powf(f64::from(k) / 8.0))
-        .collect();
-    let res: Vec<Fit> = lags
-        .par_iter()
-        .map(|l| {
-            let mut p = nl.to_vec();
-            p[last] = *l;
-            fit_at(&p)
-        })
-        .collect::<Result<_, DiagnoseError>>()?;
-    let gains: Vec<f64> = res.iter().map(|r| r.0).collect();
-    let Some(k) = (0..res.len()).max_by(|&a, &b| gains[a].total_cmp(&gains[b])) else {
-        return Ok(());
-    };
-    if gains[k] > *best_d {
-        let (d, a, c) = res[k].clone();
-        nl[last] = lags[k];
-        *best_d = d;
-        *coef = a;
-        *cp = c;
-    }
-    let inside: Vec<f64> = (0..lags.len())
-        .filter(|&j| *best_d - gains[j] <= sigma2)
-        .map(|j| lags[j])
-        .collect();
-    unc.insert("node_lag_s".into(), half_range(&inside, &lags, k));
-    Ok(())
 }
 
 pub(super) fn minmax(v: &[f64]) -> (f64, f64) {

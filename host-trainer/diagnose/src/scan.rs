@@ -12,7 +12,7 @@ use super::score::delta_bic;
 pub(super) struct Point {
     pub(super) family: Family,
     pub(super) nl: Vec<f64>,
-    pub(super) cols_b: std::sync::Arc<Vec<Vec<f64>>>,
+    pub(super) cols_b: Vec<Vec<f64>>,
 }
 
 /// Whitened statistics of every candidate point.

@@ -147,23 +147,14 @@ pub(super) fn nonlinear_of(term: &Term) -> Option<(Family, Vec<f64>)> {
     Some(match term {
         Term::SensorLag { tau_s } => (Family::SensorLag, vec![*tau_s]),
         Term::GradientLag { tau_s, .. } => (Family::GradientLag, vec![*tau_s]),
-        Term::Hysteresis {
-            width_c,
-            node_lag_s,
-            ..
-        } => (Family::Hysteresis, vec![*width_c, *node_lag_s]),
+        Term::Hysteresis { width_c, .. } => (Family::Hysteresis, vec![*width_c]),
         Term::Warmup { tau_s, .. } => (Family::Warmup, vec![*tau_s]),
         Term::ModeHop {
             temp_c,
             hysteresis_c,
-            node_lag_s,
             ..
-        } => (Family::ModeHop, vec![*temp_c, *hysteresis_c, *node_lag_s]),
-        Term::Backscatter {
-            period_c,
-            node_lag_s,
-            ..
-        } => (Family::Backscatter, vec![*period_c, *node_lag_s]),
+        } => (Family::ModeHop, vec![*temp_c, *hysteresis_c]),
+        Term::Backscatter { period_c, .. } => (Family::Backscatter, vec![*period_c]),
         Term::Periodic { period_s, .. } => (Family::Periodic, vec![*period_s]),
         Term::Aging { .. } => (Family::Aging, vec![]),
         Term::TempQuantization { step_c } => (Family::TempQuantization, vec![*step_c]),

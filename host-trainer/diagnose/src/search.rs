@@ -2,7 +2,6 @@
 
 use std::collections::BTreeMap;
 use std::collections::HashMap;
-use std::sync::Arc;
 
 use rayon::prelude::*;
 
@@ -40,7 +39,7 @@ pub(super) const LOCATE_Z: f64 = 3.5;
 /// diagnosis: each pass after a finding scans the same grid against a larger model, and on
 /// a month at 1 Hz rebuilding the columns cost 18 s per pass.
 #[derive(Debug, Default)]
-pub(crate) struct ColumnCache(std::sync::Mutex<HashMap<ColumnKey, Arc<Vec<Vec<f64>>>>>);
+pub(crate) struct ColumnCache(std::sync::Mutex<HashMap<ColumnKey, Vec<Vec<f64>>>>);
 
 /// A candidate point: its family's index and the bits of its non-linear parameters.
 type ColumnKey = (usize, Vec<u64>);
@@ -51,24 +50,22 @@ impl ColumnCache {
         family: Family,
         nl: &[f64],
         build: impl FnOnce() -> Result<Vec<Vec<f64>>, DiagnoseError>,
-    ) -> Result<Arc<Vec<Vec<f64>>>, DiagnoseError> {
+    ) -> Result<Vec<Vec<f64>>, DiagnoseError> {
         // The sensor's families depend on the model; periodic columns are closed-form sums,
         // cheaper to rebuild than the 160 MB the grid's columns hold on a month.
         if matches!(
             family,
             Family::SensorLag | Family::TempQuantization | Family::Periodic
         ) {
-            return build().map(Arc::new);
+            return build();
         }
         let key = (family.index(), nl.iter().map(|v| v.to_bits()).collect());
         if let Some(c) = self.0.lock().ok().and_then(|m| m.get(&key).cloned()) {
             return Ok(c);
         }
-        // Shared with the scan's points, not copied: on a month the grid's raw columns are
-        // hundreds of MB.
-        let c = Arc::new(build()?);
+        let c = build()?;
         if let Ok(mut m) = self.0.lock() {
-            m.insert(key, Arc::clone(&c));
+            m.insert(key, c.clone());
         }
         Ok(c)
     }
@@ -180,7 +177,7 @@ pub(crate) fn run(
         points.push(Point {
             family: Family::Heteroscedastic,
             nl: Vec::new(),
-            cols_b: Arc::default(),
+            cols_b: Vec::new(),
         });
         points.len() - 1
     });
@@ -315,7 +312,7 @@ pub(crate) fn run(
     // From here on the points are read for their family and parameters only; the scan holds
     // their whitened columns (on a month, the raw ones are another 180 MB).
     for p in &mut points {
-        p.cols_b = Arc::default();
+        p.cols_b = Vec::new();
     }
     if let (Some(i), Some(v)) = (var_point, var.as_ref()) {
         s.dbic[i] = v.dbic;
