@@ -189,6 +189,34 @@ pub fn feature_for(mechanism: Mechanism, param: impl Fn(&str) -> Option<f64>) ->
             Err("part of the paper's model, which [T, dT/dt] already carries")
         }
     };
+    // A term driven by another node of the body (`node_lag_s`): the board's inputs carry
+    // the sensor's temperature only, so say what the suggestion leaves out.
+    let node = matches!(
+        mechanism,
+        Mechanism::Hysteresis | Mechanism::ModeHop | Mechanism::Backscatter
+    )
+    .then(|| param("node_lag_s"))
+    .flatten()
+    .filter(|v| *v != 0.0);
+    if let Some(lag) = node {
+        let side = if lag > 0.0 { "behind" } else { "ahead of" };
+        let missing = format!(
+            "driven by a node {:.0} s {side} the sensor, a temperature the board's inputs do \
+             not carry (no lagged-temperature feature yet)",
+            lag.abs()
+        );
+        if mechanism != Mechanism::Hysteresis {
+            return s(None, &missing);
+        }
+        if let Ok((name, scale, feature, why)) = carrier {
+            if let Some(u) = param(name).and_then(|v| unit(scale * v)) {
+                return s(
+                    Some(feature(u)),
+                    &format!("{why}; on the sensor's T, but {missing}"),
+                );
+            }
+        }
+    }
     match carrier {
         Ok((name, scale, feature, why)) => match param(name).and_then(|v| unit(scale * v)) {
             Some(u) => s(Some(feature(u)), why),
@@ -518,7 +546,7 @@ mod tests {
 
     #[test]
     fn every_library_mechanism_has_a_decision() {
-        let p = |_: &str| Some(300.0);
+        let p = |name: &str| (name != "node_lag_s").then_some(300.0);
         assert_eq!(
             feature_for(Mechanism::SensorLag, p).feature,
             Some(Feature::TempLeadC { tau_s: 300 })
@@ -555,10 +583,23 @@ mod tests {
         assert!(feature_for(Mechanism::Hysteresis, |_| Some(-1.0))
             .feature
             .is_none());
+        // Another node's mechanism: the sensor's play with what it leaves out named, and no
+        // feature for a hop or a ripple of a lagged node.
+        let lagged = |name: &str| Some(if name == "node_lag_s" { 1600.0 } else { 2.5 });
+        let h = feature_for(Mechanism::Hysteresis, lagged);
+        assert_eq!(h.feature, Some(Feature::TempPlayC { width_mc: 2500 }));
+        assert!(h.reason.contains("1600 s behind"), "{}", h.reason);
+        let b = feature_for(Mechanism::Backscatter, lagged);
+        assert!(
+            b.feature.is_none() && b.reason.contains("1600 s behind"),
+            "{}",
+            b.reason
+        );
         // The true term's parameters reach the same mapping.
         let t = Term::Hysteresis {
             width_c: 4.0,
             height_dph: 1e-3,
+            node_lag_s: 0.0,
         };
         let s = suggest_from_term(&t);
         assert_eq!(s.feature, Some(Feature::TempPlayC { width_mc: 4000 }));

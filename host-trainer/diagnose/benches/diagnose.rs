@@ -17,6 +17,7 @@ fn one_day() -> Scenario {
     s.terms.push(Term::Hysteresis {
         width_c: 6.0,
         height_dph: 0.003,
+        node_lag_s: 0.0,
     });
     s
 }

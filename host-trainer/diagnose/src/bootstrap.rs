@@ -70,7 +70,7 @@ pub(super) fn bootstrap(
             for ((cp, fit), p) in s.cperp.iter().zip(&s.fits).zip(points) {
                 let d = match (p.family, var_d) {
                     (Family::Heteroscedastic, Some(d)) => d,
-                    _ => delta_bic(s.n, rss0, fit.drss(cp, &e), p.family.n_params()),
+                    _ => delta_bic(s.n, rss0, fit.drss(cp, &e), p.n_params()),
                 };
                 let b = &mut best[p.family.index()];
                 *b = b.min(d);

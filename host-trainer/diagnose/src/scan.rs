@@ -3,7 +3,7 @@
 
 use rayon::prelude::*;
 
-use super::candidates::Family;
+use super::candidates::{node_lag, Family};
 use super::linalg::{added_fit, dot, AddedFit, Basis};
 use super::noise::Whitener;
 use super::prepare::Prepared;
@@ -12,7 +12,17 @@ use super::score::delta_bic;
 pub(super) struct Point {
     pub(super) family: Family,
     pub(super) nl: Vec<f64>,
-    pub(super) cols_b: Vec<Vec<f64>>,
+    pub(super) cols_b: std::sync::Arc<Vec<Vec<f64>>>,
+}
+
+impl Point {
+    /// The parameters the point's ΔBIC is charged: its family's, and one more where the
+    /// term is driven by a lagging or leading node. Without the charge a lagged point wins
+    /// on noise where the sensor's own node drives the term, trading the lag against the
+    /// hysteresis' width (measured: an 8 °C play came out 4.7 °C at a 370 s lag).
+    pub(super) fn n_params(&self) -> usize {
+        self.family.n_params() + usize::from(node_lag(self.family, &self.nl) != 0.0)
+    }
 }
 
 /// Whitened statistics of every candidate point.
@@ -71,7 +81,7 @@ pub(super) fn scan(
     let mut cperp = Vec::with_capacity(res.len());
     let (mut drss, mut coef, mut dbic) = (Vec::new(), Vec::new(), Vec::new());
     for ((cp, d, a), p) in res.into_iter().zip(points) {
-        dbic.push(delta_bic(n, rss0, d, p.family.n_params()));
+        dbic.push(delta_bic(n, rss0, d, p.n_params()));
         cperp.push(cp);
         drss.push(d);
         coef.push(a);

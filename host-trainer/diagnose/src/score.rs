@@ -1,7 +1,7 @@
 //! Held-out scoring: interleaved cross-validation of the 100 s means over 1 h chunks, the
 //! model columns of a baseline with or without a candidate, and the ΔBIC every test uses.
 
-use super::candidates::Family;
+use super::candidates::{node_lag, Family};
 use super::linalg::Basis;
 use super::prepare::{
     baseline_specs, baseline_values, model_drive, DriveSeries, PhysicsModel, Prepared,
@@ -147,14 +147,23 @@ pub(super) fn nonlinear_of(term: &Term) -> Option<(Family, Vec<f64>)> {
     Some(match term {
         Term::SensorLag { tau_s } => (Family::SensorLag, vec![*tau_s]),
         Term::GradientLag { tau_s, .. } => (Family::GradientLag, vec![*tau_s]),
-        Term::Hysteresis { width_c, .. } => (Family::Hysteresis, vec![*width_c]),
+        Term::Hysteresis {
+            width_c,
+            node_lag_s,
+            ..
+        } => (Family::Hysteresis, vec![*width_c, *node_lag_s]),
         Term::Warmup { tau_s, .. } => (Family::Warmup, vec![*tau_s]),
         Term::ModeHop {
             temp_c,
             hysteresis_c,
+            node_lag_s,
             ..
-        } => (Family::ModeHop, vec![*temp_c, *hysteresis_c]),
-        Term::Backscatter { period_c, .. } => (Family::Backscatter, vec![*period_c]),
+        } => (Family::ModeHop, vec![*temp_c, *hysteresis_c, *node_lag_s]),
+        Term::Backscatter {
+            period_c,
+            node_lag_s,
+            ..
+        } => (Family::Backscatter, vec![*period_c, *node_lag_s]),
         Term::Periodic { period_s, .. } => (Family::Periodic, vec![*period_s]),
         Term::Aging { .. } => (Family::Aging, vec![]),
         Term::TempQuantization { step_c } => (Family::TempQuantization, vec![*step_c]),
@@ -248,7 +257,9 @@ fn heldout_on(
         ex.as_ref().map(|(f, nl)| (*f, &nl[..])),
     )?;
     // BIC's parameter count: the columns and a candidate's non-linear parameters.
-    let nonlinear = ex.map_or(0, |(f, _)| f.n_params().saturating_sub(1));
+    let nonlinear = ex.as_ref().map_or(0, |(f, nl)| {
+        f.n_params().saturating_sub(1) + usize::from(node_lag(*f, nl) != 0.0)
+    });
     cross_validate_by(prep, &cols, nonlinear, fold)
 }
 

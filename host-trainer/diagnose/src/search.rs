@@ -2,6 +2,7 @@
 
 use std::collections::BTreeMap;
 use std::collections::HashMap;
+use std::sync::Arc;
 
 use rayon::prelude::*;
 
@@ -39,7 +40,7 @@ pub(super) const LOCATE_Z: f64 = 3.5;
 /// diagnosis: each pass after a finding scans the same grid against a larger model, and on
 /// a month at 1 Hz rebuilding the columns cost 18 s per pass.
 #[derive(Debug, Default)]
-pub(crate) struct ColumnCache(std::sync::Mutex<HashMap<ColumnKey, Vec<Vec<f64>>>>);
+pub(crate) struct ColumnCache(std::sync::Mutex<HashMap<ColumnKey, Arc<Vec<Vec<f64>>>>>);
 
 /// A candidate point: its family's index and the bits of its non-linear parameters.
 type ColumnKey = (usize, Vec<u64>);
@@ -50,22 +51,24 @@ impl ColumnCache {
         family: Family,
         nl: &[f64],
         build: impl FnOnce() -> Result<Vec<Vec<f64>>, DiagnoseError>,
-    ) -> Result<Vec<Vec<f64>>, DiagnoseError> {
+    ) -> Result<Arc<Vec<Vec<f64>>>, DiagnoseError> {
         // The sensor's families depend on the model; periodic columns are closed-form sums,
         // cheaper to rebuild than the 160 MB the grid's columns hold on a month.
         if matches!(
             family,
             Family::SensorLag | Family::TempQuantization | Family::Periodic
         ) {
-            return build();
+            return build().map(Arc::new);
         }
         let key = (family.index(), nl.iter().map(|v| v.to_bits()).collect());
         if let Some(c) = self.0.lock().ok().and_then(|m| m.get(&key).cloned()) {
             return Ok(c);
         }
-        let c = build()?;
+        // Shared with the scan's points, not copied: on a month the grid's raw columns are
+        // hundreds of MB.
+        let c = Arc::new(build()?);
         if let Ok(mut m) = self.0.lock() {
-            m.insert(key, c.clone());
+            m.insert(key, Arc::clone(&c));
         }
         Ok(c)
     }
@@ -177,7 +180,7 @@ pub(crate) fn run(
         points.push(Point {
             family: Family::Heteroscedastic,
             nl: Vec::new(),
-            cols_b: Vec::new(),
+            cols_b: Arc::default(),
         });
         points.len() - 1
     });
@@ -312,7 +315,7 @@ pub(crate) fn run(
     // From here on the points are read for their family and parameters only; the scan holds
     // their whitened columns (on a month, the raw ones are another 180 MB).
     for p in &mut points {
-        p.cols_b = Vec::new();
+        p.cols_b = Arc::default();
     }
     if let (Some(i), Some(v)) = (var_point, var.as_ref()) {
         s.dbic[i] = v.dbic;
@@ -906,7 +909,14 @@ fn step_instead(
                 let rss0 = dot(&e, &e);
                 let df = grid
                     .iter()
-                    .map(|&j| delta_bic(s.n, rss0, s.fits[j].drss(&s.cperp[j], &e), f.n_params()))
+                    .map(|&j| {
+                        delta_bic(
+                            s.n,
+                            rss0,
+                            s.fits[j].drss(&s.cperp[j], &e),
+                            points[j].n_params(),
+                        )
+                    })
                     .fold(f64::INFINITY, f64::min);
                 sc.best(&e, s.n, rss0).delta_bic - df
             })

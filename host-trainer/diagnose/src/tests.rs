@@ -83,6 +83,7 @@ fn injected_hysteresis_is_found() {
         vec![Term::Hysteresis {
             width_c: 8.0,
             height_dph: 0.004,
+            node_lag_s: 0.0,
         }],
         13,
     );
@@ -105,6 +106,7 @@ fn plots_show_the_finding_and_are_written() {
         vec![Term::Hysteresis {
             width_c: 8.0,
             height_dph: 0.004,
+            node_lag_s: 0.0,
         }],
         13,
     );
@@ -148,11 +150,13 @@ fn two_hidden_terms_give_two_findings() {
             Term::Hysteresis {
                 width_c: 8.0,
                 height_dph: 0.004,
+                node_lag_s: 0.0,
             },
             Term::Backscatter {
                 period_c: 25.0,
                 amplitude_dph: 0.003,
                 phase_rad: 0.0,
+                node_lag_s: 0.0,
             },
         ],
         15,
@@ -168,8 +172,16 @@ fn two_hidden_terms_give_two_findings() {
             .unwrap()
             .parameters[k]
     };
-    assert!((p("hysteresis", "width_c") / 8.0 - 1.0).abs() < 0.2);
-    assert!((p("backscatter", "period_c") / 25.0 - 1.0).abs() < 0.2);
+    assert!(
+        (p("hysteresis", "width_c") / 8.0 - 1.0).abs() < 0.2,
+        "{:#?}",
+        d.findings
+    );
+    assert!(
+        (p("backscatter", "period_c") / 25.0 - 1.0).abs() < 0.2,
+        "{:#?}",
+        d.findings
+    );
 }
 
 /// White noise that grows away from 30 °C (k = 0.15: 15 % more σ at 60 °C) and a
@@ -286,6 +298,7 @@ fn mode_hop_step_between_grid_points_at_high_snr() {
             temp_c: 37.3,
             step_dph: 0.003,
             hysteresis_c: 1.5,
+            node_lag_s: 0.0,
         },
         23,
     );
@@ -297,6 +310,27 @@ fn mode_hop_step_between_grid_points_at_high_snr() {
         "{:?}",
         f.parameters
     );
+}
+
+/// A mode hop of a node 1 200 s behind the sensor (between the scan's lags of 800 and
+/// 1 600 s; 20 °C behind it on the 1 °C/min ramps): found as a mode hop with the node's lag,
+/// refined to within 15 %, and its step.
+#[test]
+fn mode_hop_of_a_lagging_node_at_high_snr() {
+    let f = high_snr(
+        Term::ModeHop {
+            temp_c: 37.3,
+            step_dph: 0.003,
+            hysteresis_c: 1.5,
+            node_lag_s: 1200.0,
+        },
+        23,
+    );
+    assert_eq!(f.mechanism, Mechanism::ModeHop, "{:?}", f.parameters);
+    let lag = f.parameters.get("node_lag_s").copied().unwrap_or(0.0);
+    assert!((lag / 1200.0 - 1.0).abs() < 0.15, "{:?}", f.parameters);
+    let step = f.parameters["step_dph"];
+    assert!((step / 0.003 - 1.0).abs() < 0.1, "step {step}");
 }
 
 /// The JSON carries the contract's field names, with `where` (not `where_`).

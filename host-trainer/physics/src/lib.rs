@@ -90,6 +90,9 @@ pub enum Term {
         width_c: f64,
         /// Half the gap between branches, °/h.
         height_dph: f64,
+        /// The driving node's lag behind T_c, s (see [`node_temperature`]); 0: T_c itself.
+        #[serde(default, skip_serializing_if = "is_zero")]
+        node_lag_s: f64,
     },
     /// amplitude·exp(−(t − t_on)/τ) from power-on on (0 before).
     Warmup {
@@ -109,6 +112,9 @@ pub enum Term {
         step_dph: f64,
         /// Switching hysteresis, °C.
         hysteresis_c: f64,
+        /// The driving node's lag behind T_c, s (see [`node_temperature`]); 0: T_c itself.
+        #[serde(default, skip_serializing_if = "is_zero")]
+        node_lag_s: f64,
     },
     /// amplitude·sin(2π·T_c/period + phase): lock-in/backscatter ripple with cavity length.
     Backscatter {
@@ -119,6 +125,9 @@ pub enum Term {
         /// rad.
         #[serde(default)]
         phase_rad: f64,
+        /// The driving node's lag behind T_c, s (see [`node_temperature`]); 0: T_c itself.
+        #[serde(default, skip_serializing_if = "is_zero")]
+        node_lag_s: f64,
     },
     /// amplitude·sin(2π·t/period + phase), only inside `windows_s` when any are given.
     Periodic {
@@ -158,6 +167,27 @@ fn one() -> f64 {
 }
 fn twenty() -> f64 {
     20.0
+}
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
+
+/// The temperature of the node that drives a term with `node_lag_s` = τ, given T_c and its
+/// rate: τ > 0, a first-order node τ behind T_c (`lag`, at rest at the first sample); τ < 0,
+/// a node |τ| ahead, T_c + |τ|·dT_c/dt, which is exactly the node a first-order lag of |τ|
+/// would follow (so both placements of a two-node body are one family); τ = 0, T_c.
+///
+/// A real gyro's mechanisms live in the laser block and its readout while its sensor sits
+/// elsewhere on the body, so a mechanism fitted on the sensor's temperature may be driven by
+/// a temperature tens of degrees away on a ramp (τ·dT/dt).
+pub fn node_temperature(lag: &mut FirstOrderLag, d: &Drive, dt_s: f64, node_lag_s: f64) -> f64 {
+    if node_lag_s > 0.0 {
+        lag.step(d.temp_c, dt_s, node_lag_s)
+    } else if node_lag_s < 0.0 {
+        d.temp_c - node_lag_s * d.dtemp_c_per_s
+    } else {
+        d.temp_c
+    }
 }
 
 /// What a term acts on.
@@ -209,9 +239,16 @@ impl Term {
 
     /// The term's numeric parameters as (name, value), names exactly as in TOML/JSON (the
     /// serde field names), in declaration order; `windows_s` and `axis` are not scalars and
-    /// are left out, `coeffs_dph` is listed as `coeffs_dph[k]`.
+    /// are left out, `coeffs_dph` is listed as `coeffs_dph[k]`, and `node_lag_s` only when it
+    /// is not 0 (as serialised).
     pub fn parameters(&self) -> Vec<(String, f64)> {
         let p = |n: &str, v: f64| (n.to_string(), v);
+        let with_lag = |mut v: Vec<(String, f64)>, lag: f64| {
+            if lag != 0.0 {
+                v.push(p("node_lag_s", lag));
+            }
+            v
+        };
         match self {
             Term::EarthRate { latitude_deg, .. } => vec![p("latitude_deg", *latitude_deg)],
             Term::StaticPoly {
@@ -242,7 +279,11 @@ impl Term {
             Term::Hysteresis {
                 width_c,
                 height_dph,
-            } => vec![p("width_c", *width_c), p("height_dph", *height_dph)],
+                node_lag_s,
+            } => with_lag(
+                vec![p("width_c", *width_c), p("height_dph", *height_dph)],
+                *node_lag_s,
+            ),
             Term::Warmup {
                 amplitude_dph,
                 tau_s,
@@ -256,20 +297,28 @@ impl Term {
                 temp_c,
                 step_dph,
                 hysteresis_c,
-            } => vec![
-                p("temp_c", *temp_c),
-                p("step_dph", *step_dph),
-                p("hysteresis_c", *hysteresis_c),
-            ],
+                node_lag_s,
+            } => with_lag(
+                vec![
+                    p("temp_c", *temp_c),
+                    p("step_dph", *step_dph),
+                    p("hysteresis_c", *hysteresis_c),
+                ],
+                *node_lag_s,
+            ),
             Term::Backscatter {
                 period_c,
                 amplitude_dph,
                 phase_rad,
-            } => vec![
-                p("period_c", *period_c),
-                p("amplitude_dph", *amplitude_dph),
-                p("phase_rad", *phase_rad),
-            ],
+                node_lag_s,
+            } => with_lag(
+                vec![
+                    p("period_c", *period_c),
+                    p("amplitude_dph", *amplitude_dph),
+                    p("phase_rad", *phase_rad),
+                ],
+                *node_lag_s,
+            ),
             Term::Periodic {
                 period_s,
                 amplitude_dph,
@@ -343,14 +392,33 @@ impl Term {
                 Err(format!("{}: `{name}` must be ≥ 0, got {v}", self.name()))
             }
         };
+        let finite = |name: &str, v: f64| {
+            if v.is_finite() {
+                Ok(())
+            } else {
+                Err(format!("{}: `{name}` must be finite, got {v}", self.name()))
+            }
+        };
         match self {
             Term::StaticPoly { scale_c, .. } => pos("scale_c", *scale_c),
             Term::SensorLag { tau_s } => nonneg("tau_s", *tau_s),
             Term::GradientLag { tau_s, .. } => nonneg("tau_s", *tau_s),
-            Term::Hysteresis { width_c, .. } => pos("width_c", *width_c),
+            Term::Hysteresis {
+                width_c,
+                node_lag_s,
+                ..
+            } => pos("width_c", *width_c).and(finite("node_lag_s", *node_lag_s)),
             Term::Warmup { tau_s, .. } => pos("tau_s", *tau_s),
-            Term::ModeHop { hysteresis_c, .. } => nonneg("hysteresis_c", *hysteresis_c),
-            Term::Backscatter { period_c, .. } => pos("period_c", *period_c),
+            Term::ModeHop {
+                hysteresis_c,
+                node_lag_s,
+                ..
+            } => nonneg("hysteresis_c", *hysteresis_c).and(finite("node_lag_s", *node_lag_s)),
+            Term::Backscatter {
+                period_c,
+                node_lag_s,
+                ..
+            } => pos("period_c", *period_c).and(finite("node_lag_s", *node_lag_s)),
             Term::Periodic { period_s, .. } => pos("period_s", *period_s),
             Term::TempQuantization { step_c } => pos("step_c", *step_c),
             // Any finite value is a meaningful parameter of these (deserialisation has already
@@ -383,6 +451,15 @@ pub struct TermStep {
 impl TermStep {
     /// Starts the term at rest at the first sample `d0` (lags settled, play centred).
     pub fn new(term: &Term, d0: &Drive) -> Self {
+        // The driving node at the first sample: a lagging node at rest there, a leading one
+        // already ahead by its lead times the rate.
+        let node0 = |lag: f64| {
+            if lag < 0.0 {
+                d0.temp_c - lag * d0.dtemp_c_per_s
+            } else {
+                d0.temp_c
+            }
+        };
         let rest = State {
             lag: FirstOrderLag::new(0.0),
             play: Play::new(0.0, d0.temp_c),
@@ -397,23 +474,33 @@ impl TermStep {
                 lag: FirstOrderLag::new(d0.dtemp_c_per_s),
                 ..rest
             },
-            Term::Hysteresis { width_c, .. } => State {
-                play: Play::new(*width_c, d0.temp_c),
+            Term::Hysteresis {
+                width_c,
+                node_lag_s,
+                ..
+            } => State {
+                play: Play::new(*width_c, node0(*node_lag_s)),
+                lag: FirstOrderLag::new(d0.temp_c),
                 ..rest
             },
             Term::ModeHop {
                 temp_c,
                 hysteresis_c,
+                node_lag_s,
                 ..
             } => State {
-                relay: Relay::new(*temp_c, temp_c - hysteresis_c, d0.temp_c),
+                relay: Relay::new(*temp_c, temp_c - hysteresis_c, node0(*node_lag_s)),
+                lag: FirstOrderLag::new(d0.temp_c),
+                ..rest
+            },
+            Term::Backscatter { .. } => State {
+                lag: FirstOrderLag::new(d0.temp_c),
                 ..rest
             },
             Term::EarthRate { .. }
             | Term::StaticPoly { .. }
             | Term::RateTerms { .. }
             | Term::Warmup { .. }
-            | Term::Backscatter { .. }
             | Term::Periodic { .. }
             | Term::Aging { .. }
             | Term::Heteroscedastic { .. }
@@ -464,7 +551,15 @@ impl TermStep {
             }
             Term::SensorLag { tau_s } => st.lag.step(sensor_in_c, dt, *tau_s),
             Term::GradientLag { tau_s, gain } => gain * st.lag.step(d.dtemp_c_per_s, dt, *tau_s),
-            Term::Hysteresis { height_dph, .. } => height_dph * st.play.step(d.temp_c),
+            Term::Hysteresis {
+                height_dph,
+                node_lag_s,
+                ..
+            } => {
+                height_dph
+                    * st.play
+                        .step(node_temperature(&mut st.lag, d, dt, *node_lag_s))
+            }
             Term::Warmup {
                 amplitude_dph,
                 tau_s,
@@ -473,7 +568,14 @@ impl TermStep {
                 true => amplitude_dph * decay(d.t_s - t_on_s, *tau_s),
                 false => 0.0,
             },
-            Term::ModeHop { step_dph, .. } => match st.relay.step(d.temp_c) {
+            Term::ModeHop {
+                step_dph,
+                node_lag_s,
+                ..
+            } => match st
+                .relay
+                .step(node_temperature(&mut st.lag, d, dt, *node_lag_s))
+            {
                 true => *step_dph,
                 false => 0.0,
             },
@@ -481,7 +583,11 @@ impl TermStep {
                 period_c,
                 amplitude_dph,
                 phase_rad,
-            } => amplitude_dph * (tau2pi * d.temp_c / period_c + phase_rad).sin(),
+                node_lag_s,
+            } => {
+                let temp = node_temperature(&mut st.lag, d, dt, *node_lag_s);
+                amplitude_dph * (tau2pi * temp / period_c + phase_rad).sin()
+            }
             Term::Periodic {
                 period_s,
                 amplitude_dph,

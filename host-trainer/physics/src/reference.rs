@@ -66,6 +66,18 @@ pub struct TermDoc {
     pub params: Vec<ParamDoc>,
 }
 
+/// The driving node of the terms of a temperature that may be another node's than T_c.
+const NODE_LAG: ParamDoc = p(
+    "node_lag_s",
+    "s",
+    "Lag τ_n of the node T_n that drives the term: > 0, a node behind T_c \
+     (τ_n·dT_n/dt = T_c − T_n, at rest at the first sample); < 0, a node |τ_n| ahead, \
+     T_n = T_c + |τ_n|·dT_c/dt (the node a lag of |τ_n| follows); 0, T_c itself. A mechanism \
+     of the laser block read by a sensor on the case, or the reverse.",
+    Some("0.0"),
+    "0.0",
+);
+
 const fn p(
     key: &'static str,
     unit: &'static str,
@@ -206,7 +218,8 @@ pub fn term_doc(m: Mechanism) -> TermDoc {
             "Different bias on heating and cooling branches: a play (backlash) operator on \
              the body temperature.",
             "b(t) = h · (T_c − p) / (w/2)   (+h heating, −h cooling, linear in between)\n\
-             p = max(T_c − w/2, min(T_c + w/2, p_prev)),  p(0) = T_c(0)"
+             p = max(T_c − w/2, min(T_c + w/2, p_prev)),  p(0) = T_c(0)\n\
+             (T_n for T_c with a node lag)"
                 .into(),
             vec![
                 p(
@@ -224,6 +237,7 @@ pub fn term_doc(m: Mechanism) -> TermDoc {
                     None,
                     "0.002",
                 ),
+                NODE_LAG,
             ],
         ),
         Mechanism::Warmup => (
@@ -254,7 +268,8 @@ pub fn term_doc(m: Mechanism) -> TermDoc {
              undone only below a lower one.",
             "b(t) = s while on, 0 while off\n\
              on when T_c > T_on, off when T_c < T_on − Δ, unchanged in between;\n\
-             at the first sample on iff T_c > T_on"
+             at the first sample on iff T_c > T_on\n\
+             (T_n for T_c with a node lag)"
                 .into(),
             vec![
                 p(
@@ -272,13 +287,14 @@ pub fn term_doc(m: Mechanism) -> TermDoc {
                     None,
                     "2.0",
                 ),
+                NODE_LAG,
             ],
         ),
         Mechanism::Backscatter => (
             Role::Bias,
             "A ripple periodic in temperature: lock-in/backscatter coupling changing with \
              the cavity length.",
-            "b(t) = A · sin(2π · T_c / P + φ)".into(),
+            "b(t) = A · sin(2π · T_n / P + φ)   (T_n = T_c without a node lag)".into(),
             vec![
                 p(
                     "period_c",
@@ -289,6 +305,7 @@ pub fn term_doc(m: Mechanism) -> TermDoc {
                 ),
                 p("amplitude_dph", "°/h", "Amplitude A.", None, "0.0025"),
                 p("phase_rad", "rad", "Phase φ.", Some("0.0"), "0.0"),
+                NODE_LAG,
             ],
         ),
         Mechanism::Periodic => (

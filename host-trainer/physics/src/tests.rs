@@ -84,6 +84,7 @@ fn hysteresis_branches_differ_by_twice_the_height() {
     let term = Term::Hysteresis {
         width_c: 6.0,
         height_dph: 0.003,
+        node_lag_s: 0.0,
     };
     let t: Vec<f64> = (0..201).map(|i| i as f64).collect();
     // Up from 0 to 50 then back down to 0.
@@ -121,6 +122,7 @@ fn mode_hop_switches_at_the_two_thresholds() {
         temp_c: 40.0,
         step_dph: 0.002,
         hysteresis_c: 3.0,
+        node_lag_s: 0.0,
     };
     let temp = [35.0, 40.0, 40.5, 38.0, 37.1, 36.9, 39.9];
     let t: Vec<f64> = (0..temp.len()).map(|i| i as f64).collect();
@@ -134,6 +136,7 @@ fn backscatter_and_periodic_are_sinusoids() {
         period_c: 8.0,
         amplitude_dph: 1e-3,
         phase_rad: 0.0,
+        node_lag_s: 0.0,
     };
     let (t, temp, rate) = ramp(0.0, 1.0, 9);
     let c = contribution(&bs, &t, &temp, &rate);
@@ -188,6 +191,7 @@ fn names_round_trip_through_toml() {
             temp_c: 40.0,
             step_dph: 0.002,
             hysteresis_c: 3.0,
+            node_lag_s: 0.0,
         },
     ];
     #[derive(Serialize, Deserialize)]
@@ -208,7 +212,8 @@ fn names_round_trip_through_toml() {
     assert!(Term::Backscatter {
         period_c: 0.0,
         amplitude_dph: 1.0,
-        phase_rad: 0.0
+        phase_rad: 0.0,
+        node_lag_s: 0.0
     }
     .validate()
     .is_err());
@@ -241,6 +246,7 @@ fn parameter_names_are_the_serde_names() {
         Term::Hysteresis {
             width_c: 1.0,
             height_dph: 2.0,
+            node_lag_s: 0.0,
         },
         Term::Warmup {
             amplitude_dph: 1.0,
@@ -251,11 +257,13 @@ fn parameter_names_are_the_serde_names() {
             temp_c: 1.0,
             step_dph: 2.0,
             hysteresis_c: 3.0,
+            node_lag_s: 0.0,
         },
         Term::Backscatter {
             period_c: 1.0,
             amplitude_dph: 2.0,
             phase_rad: 3.0,
+            node_lag_s: 0.0,
         },
         Term::Periodic {
             period_s: 1.0,
@@ -268,6 +276,23 @@ fn parameter_names_are_the_serde_names() {
         },
         Term::Heteroscedastic { k: 1.0, ref_c: 2.0 },
         Term::TempQuantization { step_c: 0.01 },
+        Term::Hysteresis {
+            width_c: 1.0,
+            height_dph: 2.0,
+            node_lag_s: 300.0,
+        },
+        Term::ModeHop {
+            temp_c: 1.0,
+            step_dph: 2.0,
+            hysteresis_c: 3.0,
+            node_lag_s: -300.0,
+        },
+        Term::Backscatter {
+            period_c: 1.0,
+            amplitude_dph: 2.0,
+            phase_rad: 3.0,
+            node_lag_s: 300.0,
+        },
     ];
     for t in &terms {
         let v = serde_json::to_value(t).unwrap();
@@ -319,6 +344,7 @@ fn every_term_kind_is_a_mechanism() {
         Term::Hysteresis {
             width_c: 2.0,
             height_dph: 1e-3,
+            node_lag_s: 0.0,
         },
         Term::Warmup {
             amplitude_dph: 1e-3,
@@ -329,11 +355,13 @@ fn every_term_kind_is_a_mechanism() {
             temp_c: 30.0,
             step_dph: 1e-3,
             hysteresis_c: 1.0,
+            node_lag_s: 0.0,
         },
         Term::Backscatter {
             period_c: 25.0,
             amplitude_dph: 1e-3,
             phase_rad: 0.0,
+            node_lag_s: 0.0,
         },
         Term::Periodic {
             period_s: 3600.0,
@@ -356,4 +384,69 @@ fn every_term_kind_is_a_mechanism() {
         let v = serde_json::to_value(t).unwrap();
         assert_eq!(v["kind"], t.mechanism().name(), "{t:?}");
     }
+}
+
+/// A term driven by another node: a positive `node_lag_s` is the first-order lag of T_c
+/// (on a ramp, T_c − τ·rate once settled; at rest at the first sample), a negative one the
+/// node that lag follows (T_c + |τ|·rate), and 0 is T_c itself, so a lagged node's term is
+/// the unlagged term of that node's temperature, bit for bit.
+#[test]
+fn driving_node_lags_or_leads_the_reading() {
+    let (tau, r) = (500.0, 0.02);
+    let n = 20_000;
+    let (t, temp, rate) = ramp(10.0, r, n);
+    let bs = |lag: f64| Term::Backscatter {
+        period_c: 7.0,
+        amplitude_dph: 1.0,
+        phase_rad: 0.3,
+        node_lag_s: lag,
+    };
+    let at = |temp_c: f64| (std::f64::consts::TAU * temp_c / 7.0 + 0.3).sin();
+    let lagged = contribution(&bs(tau), &t, &temp, &rate);
+    let led = contribution(&bs(-tau), &t, &temp, &rate);
+    let own = contribution(&bs(0.0), &t, &temp, &rate);
+    assert_eq!(lagged[0], at(temp[0]), "a lagging node starts at rest");
+    for i in [10_000, 19_999] {
+        assert!(
+            (lagged[i] - at(temp[i] - tau * r)).abs() < 1e-9,
+            "lag at {i}"
+        );
+        assert!(
+            (led[i] - at(temp[i] + tau * r)).abs() < 1e-12,
+            "lead at {i}"
+        );
+        assert_eq!(own[i], at(temp[i]));
+    }
+    // The node's own temperature through the unlagged term: identical outputs.
+    let mut lag = FirstOrderLag::new(temp[0]);
+    let node: Vec<f64> = (0..n)
+        .map(|i| lag.step(temp[i], if i == 0 { 0.0 } else { 1.0 }, tau))
+        .collect();
+    let hop = |lag: f64| Term::ModeHop {
+        temp_c: 200.0,
+        step_dph: 1.0,
+        hysteresis_c: 2.0,
+        node_lag_s: lag,
+    };
+    let via_node = contribution(&hop(0.0), &t, &node, &rate);
+    let via_lag = contribution(&hop(tau), &t, &temp, &rate);
+    assert_eq!(via_node, via_lag);
+    // The hop switches when the node, τ·r = 10 °C behind the reading, reaches 200 °C.
+    let first = via_lag.iter().position(|v| *v != 0.0).unwrap();
+    assert!((temp[first] - 210.0).abs() < 0.05, "{}", temp[first]);
+    let play = |lag: f64| Term::Hysteresis {
+        width_c: 4.0,
+        height_dph: 1.0,
+        node_lag_s: lag,
+    };
+    let via_node = contribution(&play(0.0), &t, &node, &rate);
+    assert_eq!(via_node, contribution(&play(tau), &t, &temp, &rate));
+    assert!(Term::ModeHop {
+        temp_c: 1.0,
+        step_dph: 1.0,
+        hysteresis_c: 1.0,
+        node_lag_s: f64::NAN,
+    }
+    .validate()
+    .is_err());
 }

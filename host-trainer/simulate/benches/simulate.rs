@@ -62,16 +62,19 @@ fn seven_day_campaign() -> Scenario {
             Term::Hysteresis {
                 width_c: 4.0,
                 height_dph: 5e-4,
+                node_lag_s: 0.0,
             },
             Term::ModeHop {
                 temp_c: 45.0,
                 step_dph: 1e-3,
                 hysteresis_c: 3.0,
+                node_lag_s: 0.0,
             },
             Term::Backscatter {
                 period_c: 7.0,
                 amplitude_dph: 3e-4,
                 phase_rad: 0.0,
+                node_lag_s: 0.0,
             },
             Term::Warmup {
                 amplitude_dph: 5e-3,

@@ -27,6 +27,7 @@ fn scenario() -> Scenario {
     rlg_simulate::shipped::dynamic_two_cycles(vec![Term::Hysteresis {
         width_c: 6.0,
         height_dph: 0.002,
+        node_lag_s: 0.0,
     }])
     .expect("scenario is valid")
 }

@@ -127,6 +127,7 @@ pub(super) fn hidden_term(f: Family, rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> 
         Family::Hysteresis => Term::Hysteresis {
             width_c: (3.0 + 12.0 * u(rng)).min(range / 3.0),
             height_dph: sign,
+            node_lag_s: 0.0,
         },
         Family::Warmup => Term::Warmup {
             amplitude_dph: sign,
@@ -137,11 +138,13 @@ pub(super) fn hidden_term(f: Family, rng: &mut ChaCha8Rng, lo: f64, hi: f64) -> 
             temp_c: lo + 5.0 + range * (0.3 + 0.4 * u(rng)),
             step_dph: sign,
             hysteresis_c: 0.5 + 2.5 * u(rng),
+            node_lag_s: 0.0,
         },
         Family::Backscatter => Term::Backscatter {
             period_c: (4.0 + 11.0 * u(rng)).min(range / 3.0),
             amplitude_dph: 1.0,
             phase_rad: std::f64::consts::TAU * u(rng),
+            node_lag_s: 0.0,
         },
         Family::Periodic => Term::Periodic {
             period_s: log_u(rng, 1500.0, 10_000.0),

@@ -143,6 +143,7 @@ pub(super) fn library_term(f: Family, rng: &mut ChaCha8Rng, lo: f64, hi: f64) ->
         Family::Hysteresis => Term::Hysteresis {
             width_c: (3.0 + 12.0 * uni(rng, 0.0, 1.0)).min(range / 3.0),
             height_dph: sign,
+            node_lag_s: 0.0,
         },
         Family::Warmup => Term::Warmup {
             amplitude_dph: sign,
@@ -153,11 +154,13 @@ pub(super) fn library_term(f: Family, rng: &mut ChaCha8Rng, lo: f64, hi: f64) ->
             temp_c: lo + range * uni(rng, 0.3, 0.7),
             step_dph: sign,
             hysteresis_c: uni(rng, 0.5, 3.0),
+            node_lag_s: 0.0,
         },
         Family::Backscatter => Term::Backscatter {
             period_c: (4.0 + 11.0 * uni(rng, 0.0, 1.0)).min(range / 3.0),
             amplitude_dph: 1.0,
             phase_rad: uni(rng, 0.0, std::f64::consts::TAU),
+            node_lag_s: 0.0,
         },
         Family::Periodic => Term::Periodic {
             period_s: log_uni(rng, 1500.0, 10_000.0),

@@ -277,6 +277,7 @@ impl Shape {
                     temp_c,
                     step_dph,
                     hysteresis_c,
+                    node_lag_s: 0.0,
                 }),
                 t,
                 settle_s,
@@ -305,6 +306,7 @@ impl Shape {
                         term(Term::Hysteresis {
                             width_c: width_c * f,
                             height_dph,
+                            node_lag_s: 0.0,
                         })
                     })
                     .collect();
