@@ -387,9 +387,9 @@ fn every_term_kind_is_a_mechanism() {
 }
 
 /// A term driven by another node: a positive `node_lag_s` is the first-order lag of T_c
-/// (on a ramp from rest, T_c − τ·rate·(1 − e^(−t/τ)); at rest at the first sample), a negative one the
-/// node that lag follows (T_c + |τ|·rate), and 0 is T_c itself, so a lagged node's term is
-/// the unlagged term of that node's temperature, bit for bit.
+/// (on a ramp from rest, T_c − τ·rate·(1 − e^(−t/τ)); at rest at the first sample), a
+/// negative one the node that lag follows (T_c + |τ|·rate), and 0 is T_c itself, so a
+/// lagged node's term is the unlagged term of that node's temperature, bit for bit.
 #[test]
 fn driving_node_lags_or_leads_the_reading() {
     let (tau, r) = (500.0, 0.02);
