@@ -36,6 +36,20 @@ pub(super) fn explain(
         Family::Heteroscedastic => format!("the 1 Hz white noise grows away from {} °C as 1 + k·((T − ref)/30)² ({}); the mean model is unchanged, so the RMS and 100 s stability below are too, and the BIC adds the held-out gain of the block log-variance model", pu("ref_c"), pu("k")),
         Family::TempQuantization => format!("the temperature reading is rounded to {} °C, read from the recorded values; driven by the staircase, the model sees false temperature steps and dT/dt spikes, which the reconstructed (de-quantised) temperature removes", pu("step_c")),
     };
+    // A term of another node of the body (`node_lag_s`, zero on the reading's own node): the
+    // engineer needs to know the model's temperature input is not where the effect lives.
+    let mech = match p.get("node_lag_s").copied().filter(|l| *l != 0.0) {
+        Some(l) if l > 0.0 => format!(
+            "{mech}, on a node of the body lagging the temperature reading by {l:.0} s (a \
+             first-order lag of the reading)"
+        ),
+        Some(l) => format!(
+            "{mech}, on a node of the body leading the temperature reading by {:.0} s (T + {:.0} \
+             s·dT/dt, the node the reading lags)",
+            -l, -l
+        ),
+        None => mech,
+    };
     let wh = match where_.first() {
         Some(w) => format!(
             " The effect is largest in {} span(s), the first {:.0}–{:.0} s ({}, {:.1}–{:.1} °C).",
@@ -56,4 +70,52 @@ pub(super) fn explain(
         before.bic,
         after.bic
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn words(lag: Option<f64>) -> String {
+        let mut p = BTreeMap::from([
+            ("period_c".to_string(), 25.0),
+            ("amplitude_dph".to_string(), 2e-3),
+        ]);
+        if let Some(l) = lag {
+            p.insert("node_lag_s".to_string(), l);
+        }
+        let fig = Figures {
+            rms_dph: 1e-2,
+            b100_dph: 1e-3,
+            bic: -100.0,
+        };
+        explain(
+            Family::Backscatter,
+            &p,
+            &BTreeMap::new(),
+            -9.0,
+            -3.0,
+            &fig,
+            &fig,
+            &[],
+        )
+    }
+
+    /// The text says when the finding lives on another node than the reading's, and which
+    /// way: the JSON's `node_lag_s` alone was easy to miss.
+    #[test]
+    fn a_finding_on_another_node_says_so() {
+        assert!(!words(None).contains("node of the body"));
+        assert!(!words(Some(0.0)).contains("node of the body"));
+        let behind = words(Some(800.0));
+        assert!(
+            behind.contains("lagging the temperature reading by 800 s"),
+            "{behind}"
+        );
+        let ahead = words(Some(-400.0));
+        assert!(
+            ahead.contains("leading the temperature reading by 400 s"),
+            "{ahead}"
+        );
+    }
 }
