@@ -61,6 +61,12 @@ pub struct BenchmarkDiagnoseArgs {
     /// node the temperature sensor reads; the base bias stays on the sensor's node.
     #[arg(long)]
     pub effect_elsewhere: bool,
+    /// Mismatched set only: one artefact of a chamber's data logger on each recording
+    /// (dropouts of minutes, short gaps, means of a few seconds, Unix time stamps from a
+    /// drifting, jittery clock, temperature readings at a sensor's error values); each case
+    /// keeps its conditions, hidden effect and D, and the report counts each artefact.
+    #[arg(long)]
+    pub logger: bool,
 }
 
 /// The α given on the command line, checked against what the bootstrap resolves.
@@ -84,8 +90,8 @@ pub fn run(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
         return run_mismatched_set(args);
     }
     anyhow::ensure!(
-        !args.other_shapes && !args.effect_elsewhere,
-        "--other-shapes and --effect-elsewhere apply to --set mismatched only"
+        !args.other_shapes && !args.effect_elsewhere && !args.logger,
+        "--other-shapes, --effect-elsewhere and --logger apply to --set mismatched only"
     );
     let mut opts = if args.quick {
         BenchOptions::quick(args.seed)
@@ -141,6 +147,7 @@ fn run_mismatched_set(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
     opts.variant = Variant {
         other_shapes: args.other_shapes,
         effect_elsewhere: args.effect_elsewhere,
+        logger: args.logger,
     };
     for name in &args.only {
         opts.only.push(Kind::from_name(name).ok_or_else(|| {

@@ -8,6 +8,7 @@ use serde::Serialize;
 
 use super::detect::Metric;
 use super::hidden::{hetero_d, library_term, mean_effect, Hidden};
+use super::logger::Logger;
 use super::noise::{describe_noise, NoiseDraw, PAPER_ARW, PAPER_BI};
 use super::shapes::Shape;
 use super::thermal::{self, describe_body, describe_chamber, Body, Chamber, Profile, Trajectory};
@@ -189,6 +190,8 @@ pub struct Case {
     pub peak_over_sigma1: f64,
     /// The hidden mechanism is driven by the body's other node ([`Variant::effect_elsewhere`]).
     pub effect_elsewhere: bool,
+    /// The data logger's artefact on the recording ([`Variant::logger`]).
+    pub logger: Option<Logger>,
     /// Chamber and body history.
     pub trajectory: Trajectory,
     /// What the diagnosis reads.
@@ -209,13 +212,24 @@ impl Case {
             (true, true) => " on the case",
             (true, false) => " on the core",
         };
+        let logger = self
+            .logger
+            .as_ref()
+            .map_or(String::new(), |l| format!("; {}", l.describe()));
         format!(
-            "{}; {}; {tn}; {}; hidden: {}{node}",
+            "{}; {}; {tn}; {}{logger}; hidden: {}{node}",
             describe_chamber(&c.chamber),
             describe_body(&c.body),
             describe_noise(&c.noise),
             self.hidden.describe()
         )
+    }
+
+    /// The conditions present, by name, the logger's included (see [`Conditions::tags`]).
+    pub(super) fn tags(&self) -> Vec<String> {
+        let mut t = self.conditions.tags();
+        t.extend(self.logger.as_ref().map(|l| l.tag().to_string()));
+        t
     }
 }
 
@@ -254,6 +268,8 @@ pub struct Variant {
     /// A hidden mechanism of the bias driven by the body's other node, not the sensor's
     /// (the core when the sensor is on the case, the case when it is on the core).
     pub effect_elsewhere: bool,
+    /// One artefact of a chamber's data logger on the finished recording ([`Logger`]).
+    pub logger: bool,
 }
 
 /// What a hidden effect is driven by: the sensor's node, or with `elsewhere` the body's
@@ -275,6 +291,23 @@ fn effect_drive<'a>(tr: &'a Trajectory, hidden: &Hidden, elsewhere: bool) -> Cow
 
 /// [`build_case`] in a [`Variant`].
 pub fn build_case_in(
+    id: usize,
+    kind: Kind,
+    seed: u64,
+    model: &PhysicsModel,
+    variant: Variant,
+) -> Result<Case, BenchError> {
+    let mut case = draw_case(id, kind, seed, model, variant)?;
+    if variant.logger {
+        let logger = Logger::draw(seed, id, case.conditions.chamber.duration_s);
+        logger.apply(&mut case.recording, seed, id);
+        case.logger = Some(logger);
+    }
+    Ok(case)
+}
+
+/// [`build_case_in`] up to the recording as the gyro and its sensor make it.
+fn draw_case(
     id: usize,
     kind: Kind,
     seed: u64,
@@ -479,6 +512,7 @@ fn assemble(
         energy_in_span,
         peak_over_sigma1,
         effect_elsewhere,
+        logger: None,
         trajectory: tr,
         recording,
     }

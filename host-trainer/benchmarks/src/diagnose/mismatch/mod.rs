@@ -57,6 +57,12 @@
 //!   same conditions. A real gyro's mechanisms live in the laser block and its readout,
 //!   its sensor somewhere else on the body; the base bias stays on the sensor's node, as
 //!   the model the diagnosis is given is fitted to the sensor's temperature.
+//! - **A data logger's artefacts** (`--logger`, `logger.rs`): one per case on the finished
+//!   recording, drawn from a stream of its own so the case is otherwise its default twin:
+//!   1–4 dropouts of 5–60 min, 20–80 gaps of up to 5–60 s, means of 2, 5 or 10 s, Unix time
+//!   stamps in ms from a clock ±50 ppm off with 2–50 ms of jitter, or 2–10 temperature
+//!   readings at a digital sensor's error values (85 °C, −127 °C). None is gyro physics; the
+//!   right verdict is the twin's. D is the record's before the artefact.
 //!
 //! D is the matched set's (see the parent module's doc): D² = ēᵀ(Σ⁻¹ −
 //! Σ⁻¹X(XᵀΣ⁻¹X)⁻¹XᵀΣ⁻¹)ē, ē the effect's means on the diagnosis' 100 s blocks, X its baseline
@@ -75,6 +81,7 @@
 mod detect;
 mod gen;
 mod hidden;
+mod logger;
 mod noise;
 mod report;
 mod score;
@@ -85,6 +92,7 @@ mod thermal;
 
 pub use gen::{build_case, build_case_in, Case, Conditions, Variant};
 pub use hidden::Hidden;
+pub use logger::Logger;
 pub use report::{calibration_png, calibration_png_of, mismatch_report_markdown};
 pub use shapes::Shape;
 
@@ -243,6 +251,8 @@ struct TruthFile<'a> {
     detectability: f64,
     hidden: &'a Hidden,
     conditions: &'a Conditions,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    logger: Option<&'a Logger>,
 }
 
 /// Runs the mismatched set, writing each recording to `out_dir` (deleted after scoring
@@ -271,6 +281,7 @@ pub fn run_mismatched(
                 detectability: case.d,
                 hidden: &case.hidden,
                 conditions: &case.conditions,
+                logger: case.logger.as_ref(),
             };
             let json = serde_json::to_vec_pretty(&tf).map_err(|e| BenchError::Truth {
                 path: truth.display().to_string(),
@@ -292,7 +303,7 @@ pub fn run_mismatched(
             }
             Ok(MismatchResult {
                 kind,
-                conditions: case.conditions.tags(),
+                conditions: case.tags(),
                 form: match &case.hidden {
                     Hidden::Shaped { shape } => Some(shape.form()),
                     _ => None,

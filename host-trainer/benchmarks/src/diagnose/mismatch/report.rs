@@ -6,6 +6,7 @@ use std::path::Path;
 use plotters::prelude::*;
 
 use super::gen::CONDITION_TAGS;
+use super::logger::LOGGER_TAGS;
 use super::{Kind, MismatchResult};
 use crate::diagnose::{BenchError, CaseResult, Label};
 use rlg_diagnose::candidates::Family;
@@ -221,10 +222,14 @@ pub fn mismatch_report_markdown(results: &[MismatchResult]) -> String {
             format!("{} of {} ({nm})", at(ra), set.len())
         }
     };
-    for tag in CONDITION_TAGS {
+    for tag in CONDITION_TAGS.iter().chain(&LOGGER_TAGS) {
         let (with, without): (Vec<&&MismatchResult>, Vec<&&MismatchResult>) = clean_mm
             .iter()
             .partition(|r| r.conditions.iter().any(|c| c == tag));
+        // The logger's rows only where `--logger` put its artefacts.
+        if with.is_empty() && LOGGER_TAGS.contains(tag) {
+            continue;
+        }
         let _ = writeln!(o, "| {tag} | {} | {} |", cell(&with), cell(&without));
     }
 

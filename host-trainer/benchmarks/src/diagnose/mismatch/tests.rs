@@ -600,3 +600,84 @@ fn effect_elsewhere_is_driven_by_the_other_node() {
     }
     assert_eq!(moved, 7);
 }
+
+/// `--logger` leaves the case as drawn (conditions, hidden effect, D) and changes only the
+/// recording, each artefact as it says: minutes or seconds missing, means of k seconds,
+/// Unix millisecond stamps that stay strictly increasing, readings at a sensor's error
+/// values. Every artefact is drawn among a few cases, and a recording survives a CSV round
+/// trip through the reader the diagnosis uses.
+#[test]
+fn logger_artefacts_change_only_the_recording() {
+    use super::logger::Logger;
+    let model = PhysicsModel::paper();
+    let variant = Variant {
+        logger: true,
+        ..Variant::default()
+    };
+    let mut seen = std::collections::BTreeSet::new();
+    let dir = std::env::temp_dir().join(format!("rlg-logger-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    for id in 0..24 {
+        let kind = if id % 3 == 0 {
+            Kind::Library(Family::Aging)
+        } else {
+            Kind::Clean
+        };
+        let base = build_case(id, kind, 5, &model).expect("case");
+        let alt = build_case_in(id, kind, 5, &model, variant).expect("case");
+        assert_eq!(alt.conditions, base.conditions);
+        assert_eq!(alt.hidden, base.hidden);
+        assert_eq!(alt.d, base.d);
+        let (b, a) = (&base.recording, &alt.recording);
+        let logger = alt.logger.clone().expect("an artefact");
+        assert!(alt.describe().contains(&logger.describe()));
+        assert!(alt.tags().iter().any(|t| t == logger.tag()));
+        let steps = || a.time_s.windows(2).map(|w| w[1] - w[0]);
+        assert!(steps().all(|d| d > 0.0), "{logger:?}");
+        match &logger {
+            Logger::Dropouts { gaps } => {
+                assert!(a.len() < b.len());
+                assert!(steps().fold(0.0, f64::max) >= gaps[0].1, "{logger:?}");
+            }
+            Logger::Hiccups { .. } => {
+                assert!(
+                    a.len() < b.len() && a.len() > b.len() * 9 / 10,
+                    "{logger:?}"
+                );
+            }
+            Logger::Averaged { period_s } => {
+                let k = *period_s as usize;
+                assert_eq!(a.len(), b.len() / k);
+                let m: f64 = b.rate_dph[k..2 * k].iter().sum::<f64>() / k as f64;
+                assert!((a.rate_dph[1] - m).abs() < 1e-12);
+            }
+            Logger::EpochClock { offset_s, .. } => {
+                assert_eq!(a.len(), b.len());
+                assert!(a.time_s[0] >= *offset_s - 1.0 && a.time_s[0] > 1e9);
+                assert!(a
+                    .time_s
+                    .iter()
+                    .all(|t| (t * 1e3 - (t * 1e3).round()).abs() < 1e-3));
+                assert_eq!(a.rate_dph, b.rate_dph);
+            }
+            Logger::TempFaults { count } => {
+                let bad = a
+                    .temp_c
+                    .iter()
+                    .filter(|t| **t == 85.0 || **t == -127.0)
+                    .count();
+                assert!(bad >= 1 && bad <= *count, "{bad} of {count}");
+                assert_eq!(a.rate_dph, b.rate_dph);
+            }
+        }
+        seen.insert(logger.tag());
+        if id < 5 {
+            let path = dir.join(format!("{id}.csv"));
+            a.write_csv(&path).expect("written");
+            let back = Recording::read_csv(&path).expect("read back");
+            assert_eq!(back.len(), a.len());
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(seen.len(), 5, "{seen:?}");
+}
