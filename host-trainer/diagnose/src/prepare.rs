@@ -598,6 +598,16 @@ pub fn block_samples(n: usize, dt_s: f64) -> usize {
 /// partial last block. A recording given by value lends its series to the result instead of
 /// being copied (a month at 1 Hz: 80 MB less while the diagnosis runs).
 pub fn prepare<'a>(rec: impl Into<Cow<'a, Recording>>) -> Result<Prepared, DiagnoseError> {
+    prepare_shifted(rec, 0)
+}
+
+/// [`prepare`] with the 100 s blocks starting `shift` samples later (of the record as
+/// prepared: after faults are dropped and bursts averaged); the samples before the first
+/// block are still used for dT/dt.
+pub fn prepare_shifted<'a>(
+    rec: impl Into<Cow<'a, Recording>>,
+    shift: usize,
+) -> Result<Prepared, DiagnoseError> {
     let mut rec = rec.into();
     if rec.len() < 3 {
         return Err(DiagnoseError::TooShort {
@@ -638,7 +648,7 @@ pub fn prepare<'a>(rec: impl Into<Cow<'a, Recording>>) -> Result<Prepared, Diagn
     let block = block_samples(n, dt_s);
     // The first and last ±30 s have one-sided differences; the start is dropped (the end is
     // usually cut by the partial last block).
-    let skip = ((RATE_HALF_WIDTH_S / dt_s).ceil() as usize).min(n);
+    let skip = ((RATE_HALF_WIDTH_S / dt_s).ceil() as usize + shift).min(n);
     let usable = (n - skip) / block * block;
     let nb = usable / block;
     if nb < MIN_BLOCKS {

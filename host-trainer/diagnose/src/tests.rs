@@ -656,3 +656,64 @@ fn a_bias_in_the_rate_squared_is_not_put_on_a_lagged_node() {
         }
     }
 }
+
+/// The blocks start `shift` samples later and nothing else changes: the same samples
+/// averaged from a later start, the same drive.
+#[test]
+fn a_shifted_preparation_moves_only_where_the_blocks_start() {
+    let sim = simulate(&scenario(vec![], 1.0), 33).expect("simulates");
+    let p0 = prepare::prepare(&sim.recording).expect("prepares");
+    let p1 = prepare::prepare_shifted(&sim.recording, 33).expect("prepares");
+    assert_eq!(p1.range.start, p0.range.start + 33);
+    assert_eq!(p1.t_b[0], p0.t_b[0] + 33.0 * p0.dt_s);
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let r = &sim.recording.rate_dph[p1.range.start..p1.range.start + p1.block];
+    assert!((p1.y_b[0] - mean(r)).abs() < 1e-12);
+    assert_eq!(p1.full_drive.temp_c, p0.full_drive.temp_c);
+    assert_eq!(p1.full_drive.dtemp_c_per_s, p0.full_drive.dtemp_c_per_s);
+    assert!(p1.nb() + 1 >= p0.nb());
+}
+
+/// Decided over three block phases, the diagnosis kept is the phase whose first pass has
+/// the median verdict p-value of the three (each computed here on its own), and its note
+/// gives all three.
+#[test]
+fn a_verdict_near_its_threshold_is_decided_over_block_phases() {
+    let sim = simulate(&scenario(vec![], 1.0), 5).expect("simulates");
+    let model = PhysicsModel::paper();
+    let opts = Options {
+        phases: 3,
+        ..Options::default()
+    };
+    let first = |shift: usize| {
+        let prep = prepare::prepare_shifted(&sim.recording, shift).expect("prepares");
+        let cache = search::ColumnCache::default();
+        let d = search::run(&prep, &model, &opts, &cache, true).expect("diagnoses");
+        (prep, cache, d)
+    };
+    let p0 = first(0);
+    let block = p0.0.block;
+    let t0 = p0.0.t_b[0];
+    let mut ps = vec![p0.2.evidence.p_value];
+    for k in 1..3 {
+        ps.push(first(k * block / 3).2.evidence.p_value);
+    }
+    let (prep, _, d) = median_phase(&sim.recording, &model, &opts, p0).expect("decides");
+    let mut sorted = ps.clone();
+    sorted.sort_by(f64::total_cmp);
+    assert_eq!(d.evidence.p_value, sorted[1], "{ps:?}");
+    let k = ps
+        .iter()
+        .position(|p| *p == sorted[1])
+        .expect("one of the three");
+    assert_eq!(prep.t_b[0], t0 + (k * block / 3) as f64 * prep.dt_s);
+    let note = d
+        .evidence
+        .notes
+        .iter()
+        .find(|n| n.contains("decided over 3 block phases"))
+        .expect("the note");
+    for p in &ps {
+        assert!(note.contains(&format!("{p:.3}")), "{note}");
+    }
+}

@@ -67,6 +67,15 @@ pub struct BenchmarkDiagnoseArgs {
     /// keeps its conditions, hidden effect and D, and the report counts each artefact.
     #[arg(long)]
     pub logger: bool,
+    /// Diagnose each recording without its first N samples (0–3600): the same records with
+    /// their 100 s blocks starting N samples later, to measure how much the verdicts depend
+    /// on where the blocks start. Scored against the whole recording's truth.
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u16).range(0..=3600))]
+    pub shift: u16,
+    /// Block phases a verdict near its threshold is decided over (`rlg diagnose --phases`).
+    #[arg(long, default_value_t = rlg_diagnose::Options::default().phases as u8,
+          value_parser = clap::value_parser!(u8).range(1..=5))]
+    pub phases: u8,
 }
 
 /// The α given on the command line, checked against what the bootstrap resolves.
@@ -99,6 +108,8 @@ pub fn run(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
         BenchOptions::full(args.seed)
     };
     opts.keep = args.keep;
+    opts.shift = usize::from(args.shift);
+    opts.phases = usize::from(args.phases);
     for name in &args.only {
         opts.only.push(match name.as_str() {
             "none" => None,
@@ -149,6 +160,8 @@ fn run_mismatched_set(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
         effect_elsewhere: args.effect_elsewhere,
         logger: args.logger,
     };
+    opts.shift = usize::from(args.shift);
+    opts.phases = usize::from(args.phases);
     for name in &args.only {
         opts.only.push(Kind::from_name(name).ok_or_else(|| {
             let known: Vec<&str> = rlg_diagnose::Family::ALL.iter().map(|f| f.name()).collect();

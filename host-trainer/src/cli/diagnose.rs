@@ -38,6 +38,12 @@ pub struct DiagnoseArgs {
     /// False-alarm probability per recording of the significance test.
     #[arg(long, value_name = "P", default_value_t = Options::default().alpha)]
     pub alpha: f64,
+    /// Block phases a verdict near its threshold is decided over: its first pass again with
+    /// the 100 s blocks starting k/N of a block later, the phase with the median p-value
+    /// kept (1: the blocks as they fall; at most 5).
+    #[arg(long, value_name = "N", default_value_t = Options::default().phases as u8,
+          value_parser = clap::value_parser!(u8).range(1..=5))]
+    pub phases: u8,
 }
 
 /// Runs the subcommand.
@@ -93,6 +99,7 @@ pub fn run(args: &DiagnoseArgs) -> anyhow::Result<()> {
     let opts = Options {
         bootstrap: args.bootstrap,
         alpha: args.alpha,
+        phases: usize::from(args.phases),
         ..Options::default()
     };
     let d = diagnose(rec, &model, &opts)?;

@@ -68,6 +68,10 @@ pub struct BenchOptions {
     /// Run only these hidden terms (None: nothing-hidden cases); empty: every case. Each
     /// case keeps its number, so a subset reproduces the full run's recordings.
     pub only: Vec<Option<Family>>,
+    /// Samples cut from the start of each recording before it is diagnosed ([`cut_start`]).
+    pub shift: usize,
+    /// The diagnosis' [`Options::phases`].
+    pub phases: usize,
 }
 
 impl BenchOptions {
@@ -80,6 +84,8 @@ impl BenchOptions {
             keep: false,
             alpha: Options::default().alpha,
             only: Vec::new(),
+            shift: 0,
+            phases: Options::default().phases,
         }
     }
 
@@ -92,6 +98,8 @@ impl BenchOptions {
             keep: false,
             alpha: Options::default().alpha,
             only: Vec::new(),
+            shift: 0,
+            phases: Options::default().phases,
         }
     }
 }
@@ -117,6 +125,17 @@ pub enum BenchError {
         /// What went wrong.
         message: String,
     },
+}
+
+/// `rec` without its first `n` samples: the same recording, its 100 s blocks starting `n`
+/// samples later. A verdict whose tests sit near a threshold can depend on where the blocks
+/// start; diagnosing the same records cut by a few tens of samples measures how much.
+pub fn cut_start(rec: &Recording, n: usize) -> std::borrow::Cow<'_, Recording> {
+    if n == 0 {
+        return std::borrow::Cow::Borrowed(rec);
+    }
+    let drop: Vec<bool> = (0..rec.time_s.len()).map(|i| i < n).collect();
+    std::borrow::Cow::Owned(rec.without(&drop))
 }
 
 /// Runs the benchmark, writing recordings to `out_dir` (deleted after scoring unless kept).
@@ -147,13 +166,17 @@ pub fn run_benchmark(opts: &BenchOptions, out_dir: &Path) -> Result<Vec<CaseResu
             let t0 = std::time::Instant::now();
             let dopts = Options {
                 alpha: opts.alpha,
+                phases: opts.phases,
                 ..Options::default()
             };
-            let d = diagnose(&rec, &model, &dopts)?;
+            let d = diagnose(cut_start(&rec, opts.shift), &model, &dopts)?;
             let secs = t0.elapsed().as_secs_f64();
+            // Scored on the whole recording: its truth sidecar describes all of it, and the
+            // samples cut change its D by a share of the order of the shift over its length.
             let r =
                 score(id, case.profile, &rec, &truth_path(&csv), &d, &model, secs).map(|mut r| {
                     r.alpha = opts.alpha;
+                    r.shift = opts.shift;
                     r
                 });
             if !opts.keep {

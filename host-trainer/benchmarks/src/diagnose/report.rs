@@ -22,6 +22,14 @@ pub fn report_markdown(results: &[CaseResult]) -> String {
         .iter()
         .filter(|r| matches!(r.predicted, Label::Mechanism(_)))
         .count();
+    let shift = results.iter().map(|r| r.shift).max().unwrap_or(0);
+    if shift > 0 {
+        let _ = writeln!(
+            o,
+            "Each recording diagnosed without its first {shift} samples (its 100 s blocks start \
+             {shift} samples later).\n"
+        );
+    }
     let _ = writeln!(o, "| measure | result | target |\n|---|---|---|");
     let _ = writeln!(
         o,

@@ -49,6 +49,10 @@ pub struct CaseResult {
     /// The α the diagnosis ran at.
     #[serde(default)]
     pub alpha: f64,
+    /// Samples cut from the start of the recording before it was diagnosed (its 100 s
+    /// blocks start that much later; see [`super::cut_start`]).
+    #[serde(default)]
+    pub shift: usize,
 }
 
 /// See [`CaseResult::p_values`].

@@ -53,6 +53,7 @@ pub(super) fn score(
         best_delta_bic: CaseResult::best_of(d),
         p_values: PValues::of(d),
         alpha: 0.0,
+        shift: 0,
     };
     let Some(h) = hidden else { return Ok(r) };
     r.p_values.true_family_alone = d

@@ -124,6 +124,7 @@ fn verdict_at_a_smaller_alpha() {
             true_family_alone: Some(0.001),
         },
         alpha: 0.05,
+        shift: 0,
     };
     let aging = Label::Mechanism(Mechanism::Aging);
     assert_eq!(r.predicted_at(0.05), aging);
@@ -154,6 +155,56 @@ fn verdict_at_a_smaller_alpha() {
     assert_eq!(r.predicted_at(0.01), Label::None);
     r.p_values.verdict = Some(0.004);
     assert_eq!(r.predicted_at(0.01), Label::Unexplained);
+}
+
+/// `cut_start` drops exactly the first samples of every column, leaves the recording alone
+/// at zero, and a report of shifted results says so.
+#[test]
+fn cut_start_moves_where_the_blocks_start() {
+    let n = 500;
+    let rec = Recording {
+        time_s: (0..n).map(|i| i as f64).collect(),
+        rate_dph: (0..n).map(|i| 0.01 * i as f64).collect(),
+        temp_c: (0..n).map(|i| 20.0 + 0.001 * i as f64).collect(),
+        chamber_c: Some((0..n).map(|i| 21.0 + 0.001 * i as f64).collect()),
+        extra: vec![("note".into(), (0..n).map(|i| i.to_string()).collect())],
+        comments: vec!["made here".into()],
+    };
+    assert!(matches!(cut_start(&rec, 0), std::borrow::Cow::Borrowed(_)));
+    let cut = cut_start(&rec, 37);
+    assert_eq!(cut.time_s.len(), n - 37);
+    assert_eq!(cut.time_s[0], 37.0);
+    assert_eq!(cut.rate_dph[..], rec.rate_dph[37..]);
+    assert_eq!(cut.temp_c[..], rec.temp_c[37..]);
+    assert_eq!(
+        cut.chamber_c.as_deref(),
+        Some(&rec.chamber_c.as_ref().unwrap()[37..])
+    );
+    assert_eq!(cut.extra[0].1[..], rec.extra[0].1[37..]);
+
+    let r = CaseResult {
+        id: 0,
+        profile: String::new(),
+        truth: Label::None,
+        detectability: 0.0,
+        detectability_marginal: 0.0,
+        peak_over_sigma1: 0.0,
+        energy_in_span: 0.0,
+        predicted: Label::None,
+        param_ok: None,
+        param_rel_err: None,
+        param: None,
+        iou: None,
+        gain_fraction: None,
+        seconds: 0.0,
+        best_delta_bic: (Label::None, 0.0, 0.0),
+        p_values: PValues::default(),
+        alpha: 0.02,
+        shift: 0,
+    };
+    let said = "without its first 37 samples";
+    assert!(!report_markdown(std::slice::from_ref(&r)).contains(said));
+    assert!(report_markdown(&[CaseResult { shift: 37, ..r }]).contains(said));
 }
 
 /// The quick benchmark end to end (release only: `cargo test --release -p rlg-benchmarks

@@ -184,6 +184,11 @@ pub struct MismatchOptions {
     pub only: Vec<Kind>,
     /// Which variant of the set: mechanisms in other forms, driven by the other node.
     pub variant: Variant,
+    /// Samples cut from the start of each recording before it is diagnosed
+    /// ([`super::cut_start`]).
+    pub shift: usize,
+    /// The diagnosis' [`Options::phases`].
+    pub phases: usize,
 }
 
 impl MismatchOptions {
@@ -198,6 +203,8 @@ impl MismatchOptions {
             alpha: Options::default().alpha,
             only: Vec::new(),
             variant: Variant::default(),
+            shift: 0,
+            phases: Options::default().phases,
         }
     }
 
@@ -292,10 +299,11 @@ pub fn run_mismatched(
             let rec = Recording::read_csv(&csv)?;
             let dopts = Options {
                 alpha: opts.alpha,
+                phases: opts.phases,
                 ..Options::default()
             };
             let t0 = std::time::Instant::now();
-            let d = diagnose(&rec, &model, &dopts)?;
+            let d = diagnose(super::cut_start(&rec, opts.shift), &model, &dopts)?;
             let secs = t0.elapsed().as_secs_f64();
             if !opts.keep {
                 let _ = std::fs::remove_file(&csv);
@@ -308,7 +316,11 @@ pub fn run_mismatched(
                     Hidden::Shaped { shape } => Some(shape.form()),
                     _ => None,
                 },
-                result: score::score(&case, &d, secs, opts.alpha),
+                result: {
+                    let mut r = score::score(&case, &d, secs, opts.alpha);
+                    r.shift = opts.shift;
+                    r
+                },
             })
         })
         .collect()

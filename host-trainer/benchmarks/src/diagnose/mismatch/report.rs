@@ -73,6 +73,14 @@ pub fn mismatch_report_markdown(results: &[MismatchResult]) -> String {
         results.len(),
         100.0 * ra
     );
+    let shift = results.iter().map(|r| r.result.shift).max().unwrap_or(0);
+    if shift > 0 {
+        let _ = writeln!(
+            o,
+            "Each recording diagnosed without its first {shift} samples (its 100 s blocks start \
+             {shift} samples later).\n"
+        );
+    }
     let _ = writeln!(o, "| measure | result |\n|---|---|");
     let fa = flagged(&clean, ra);
     let named = clean

@@ -30,6 +30,7 @@ pub(super) fn score(case: &Case, d: &Diagnosis, seconds: f64, alpha: f64) -> Cas
         best_delta_bic: CaseResult::best_of(d),
         p_values: PValues::of(d),
         alpha,
+        shift: 0,
     };
     let mechanism = match &case.hidden {
         Hidden::Library { term } => term.mechanism(),

@@ -350,6 +350,7 @@ fn report_and_figure() {
                 true_family_alone: None,
             },
             alpha: 0.1,
+            shift: 0,
         },
     };
     let results = vec![
