@@ -4,6 +4,7 @@ pub mod bench_length;
 pub mod benchmark_diagnose;
 pub mod benchmark_lssvm;
 pub mod calibrate;
+pub mod calibration_report;
 pub mod close_loop;
 pub mod default_table;
 pub mod diagnose;
@@ -55,6 +56,9 @@ pub enum Command {
     BenchDiagnoseLength(bench_length::BenchLengthArgs),
     /// Run the concealed-effect benchmark of the diagnosis and print its table.
     BenchmarkDiagnose(benchmark_diagnose::BenchmarkDiagnoseArgs),
+    /// Pool the clean recordings of several benchmark runs (seeds, block phases): the
+    /// p-value calibration as a table and a figure.
+    CalibrationReport(calibration_report::CalibrationReportArgs),
     /// Turn a diagnosis into compensation features, retrain on them and compare held out.
     CloseLoop(close_loop::CloseLoopArgs),
     /// Run the close loop on the concealed-effect benchmark's lag, hysteresis and warm-up cases.
@@ -85,6 +89,7 @@ impl Cli {
             Command::SparseReport(a) => benchmark_lssvm::run_sparse(&a),
             Command::Diagnose(a) => diagnose::run(&a),
             Command::BenchmarkDiagnose(a) => benchmark_diagnose::run(&a),
+            Command::CalibrationReport(a) => calibration_report::run(&a),
             Command::BenchDiagnoseLength(a) => bench_length::run(&a),
             Command::CloseLoop(a) => close_loop::run(&a, command_line),
             Command::BenchmarkCloseLoop(a) => close_loop::run_benchmark(&a),

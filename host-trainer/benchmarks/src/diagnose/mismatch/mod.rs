@@ -93,7 +93,10 @@ mod thermal;
 pub use gen::{build_case, build_case_in, Case, Conditions, Variant};
 pub use hidden::Hidden;
 pub use logger::Logger;
-pub use report::{calibration_png, calibration_png_of, mismatch_report_markdown};
+pub use report::{
+    calibration_markdown, calibration_png, calibration_png_of, clean_results,
+    mismatch_report_markdown,
+};
 pub use shapes::Shape;
 
 use std::path::Path;

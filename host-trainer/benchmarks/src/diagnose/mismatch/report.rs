@@ -160,44 +160,7 @@ pub fn mismatch_report_markdown(results: &[MismatchResult]) -> String {
 
     forms_table(&mut o, results);
 
-    let _ = writeln!(
-        o,
-        "\nCalibration on the {} clean recordings: share whose verdict at α is not `none` \
-         (from the bootstrap p-values; exact for α ≤ the run's α = {:.1} %, the run's verdict \
-         above it), its 95 % interval, the target band [α/2, 2α], and the share whose best \
-         candidate has p ≤ α:\n",
-        clean.len(),
-        100.0 * ra
-    );
-    let _ = writeln!(
-        o,
-        "| α | flagged | 95 % interval | band | in band | p_best ≤ α |\n|---|---|---|---|---|---|"
-    );
-    for a in CAL_ALPHAS {
-        let k = flagged(&clean, a);
-        let n = clean.len();
-        let share = k as f64 / n.max(1) as f64;
-        let (lo, hi) = wilson(k, n);
-        let exact = if a <= ra + 1e-12 { "" } else { " (run's α)" };
-        let inside = if n == 0 {
-            "–"
-        } else if (0.5 * a..=2.0 * a).contains(&share) {
-            "yes"
-        } else {
-            "no"
-        };
-        let _ = writeln!(
-            o,
-            "| {:.0} %{exact} | {} | {:.1}–{:.1} % | {:.1}–{:.0} % | {inside} | {} |",
-            100.0 * a,
-            pct(k, n),
-            100.0 * lo,
-            100.0 * hi,
-            50.0 * a,
-            200.0 * a,
-            pct(p_best(&clean, a), n)
-        );
-    }
+    o.push_str(&calibration_markdown(&clean));
 
     // At the run's α and at the diagnosis' default 2 % when the run's is larger.
     let low = CAL_ALPHAS[1].min(ra);
@@ -329,6 +292,78 @@ fn forms_table(o: &mut String, results: &[MismatchResult]) {
             }
         );
     }
+}
+
+/// The calibration of the verdict's p-value on the clean recordings `clean` (one run or
+/// several pooled): the share flagged at each α of 1, 2, 5 and 10 %, its 95 % interval, the
+/// band [α/2, 2α] and the share whose best candidate has p ≤ α, in Markdown.
+pub fn calibration_markdown(clean: &[&CaseResult]) -> String {
+    let mut o = String::new();
+    let ra = clean.iter().map(|r| r.alpha).fold(0.0, f64::max);
+    let _ = writeln!(
+        o,
+        "\nCalibration on the {} clean recordings: share whose verdict at α is not `none` \
+         (from the bootstrap p-values; exact for α ≤ the run's α = {:.1} %, the run's verdict \
+         above it), its 95 % interval, the target band [α/2, 2α], and the share whose best \
+         candidate has p ≤ α:\n",
+        clean.len(),
+        100.0 * ra
+    );
+    let _ = writeln!(
+        o,
+        "| α | flagged | 95 % interval | band | in band | p_best ≤ α |\n|---|---|---|---|---|---|"
+    );
+    for a in CAL_ALPHAS {
+        let k = flagged(clean, a);
+        let n = clean.len();
+        let share = k as f64 / n.max(1) as f64;
+        let (lo, hi) = wilson(k, n);
+        let exact = if a <= ra + 1e-12 { "" } else { " (run's α)" };
+        let inside = if n == 0 {
+            "–"
+        } else if (0.5 * a..=2.0 * a).contains(&share) {
+            "yes"
+        } else {
+            "no"
+        };
+        let _ = writeln!(
+            o,
+            "| {:.0} %{exact} | {} | {:.1}–{:.1} % | {:.1}–{:.0} % | {inside} | {} |",
+            100.0 * a,
+            pct(k, n),
+            100.0 * lo,
+            100.0 * hi,
+            50.0 * a,
+            200.0 * a,
+            pct(p_best(clean, a), n)
+        );
+    }
+
+    o
+}
+
+/// The clean recordings of the benchmark results in `json` (a `results.json` of either
+/// set: a mismatched run's entries hold their kind and result, a matched run's are results).
+pub fn clean_results(json: &str) -> Result<Vec<CaseResult>, serde_json::Error> {
+    let all: Vec<serde_json::Value> = serde_json::from_str(json)?;
+    let mut clean = Vec::new();
+    for v in all {
+        let (r, is_clean) = match v.get("result") {
+            Some(r) => (
+                serde_json::from_value::<CaseResult>(r.clone())?,
+                v.get("kind").and_then(serde_json::Value::as_str) == Some(Kind::Clean.name()),
+            ),
+            None => {
+                let r: CaseResult = serde_json::from_value(v)?;
+                let none = r.truth == Label::None;
+                (r, none)
+            }
+        };
+        if is_clean {
+            clean.push(r);
+        }
+    }
+    Ok(clean)
 }
 
 /// Draws the calibration on the clean recordings of a mismatched run (see

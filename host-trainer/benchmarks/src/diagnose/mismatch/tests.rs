@@ -319,10 +319,9 @@ fn plan_and_names() {
     );
 }
 
-/// The report shows every section and the calibration figure is a PNG, on made-up results.
-#[test]
-fn report_and_figure() {
-    let r = |id: usize, kind: Kind, truth: Label, predicted: Label, p: f64| MismatchResult {
+/// A made-up scored case whose every p-value is `p`, run at α = 10 %.
+fn made_up(id: usize, kind: Kind, truth: Label, predicted: Label, p: f64) -> MismatchResult {
+    MismatchResult {
         kind,
         conditions: vec!["angle quantisation".into()],
         form: None,
@@ -352,8 +351,13 @@ fn report_and_figure() {
             alpha: 0.1,
             shift: 0,
         },
-    };
-    let results = vec![
+    }
+}
+
+/// Two clean cases (p 0.5 and 0.03), an outside-library step and a missed aging.
+fn made_up_run() -> Vec<MismatchResult> {
+    let r = made_up;
+    vec![
         r(0, Kind::Clean, Label::None, Label::None, 0.5),
         r(1, Kind::Clean, Label::None, Label::Unexplained, 0.03),
         r(2, Kind::Step, Label::Unexplained, Label::Unexplained, 0.0),
@@ -364,7 +368,13 @@ fn report_and_figure() {
             Label::None,
             0.4,
         ),
-    ];
+    ]
+}
+
+/// The report shows every section and the calibration figure is a PNG, on made-up results.
+#[test]
+fn report_and_figure() {
+    let results = made_up_run();
     let md = mismatch_report_markdown(&results);
     for needle in [
         "α = 10.0 %",
@@ -383,6 +393,26 @@ fn report_and_figure() {
     calibration_png(&results, &png).expect("draws");
     let b = std::fs::read(&png).expect("reads");
     assert_eq!(&b[..8], b"\x89PNG\r\n\x1a\n");
+}
+
+/// `clean_results` reads the clean cases of either set's `results.json` (a mismatched run's
+/// entries by their kind, a matched run's results by their truth), and their calibration
+/// pools: one of the two clean cases of each run is flagged at 5 %.
+#[test]
+fn clean_results_of_both_sets_pool() {
+    let results = made_up_run();
+    let mismatched =
+        clean_results(&serde_json::to_string(&results).expect("writes")).expect("reads");
+    let matched: Vec<CaseResult> = results.iter().map(|r| r.result.clone()).collect();
+    let matched = clean_results(&serde_json::to_string(&matched).expect("writes")).expect("reads");
+    for clean in [&mismatched, &matched] {
+        assert_eq!(clean.iter().map(|c| c.id).collect::<Vec<_>>(), [0, 1]);
+    }
+    let pooled: Vec<&CaseResult> = mismatched.iter().chain(&matched).collect();
+    let md = calibration_markdown(&pooled);
+    assert!(md.contains("Calibration on the 4 clean recordings"), "{md}");
+    assert!(md.contains("| 5 % | 50 % (2/4)"), "{md}");
+    assert!(md.contains("| 1 % | 0 % (0/4)"), "{md}");
 }
 
 /// A clean recording of design seed 3 (case 167: 3 °C/min ramps, angle quantisation, rate
