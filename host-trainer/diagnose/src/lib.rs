@@ -461,7 +461,11 @@ fn median_phase(
     let mut runs = vec![(0, first)];
     for k in 1..opts.phases {
         let shift = k * block / opts.phases;
-        let prep = prepare::prepare_shifted(rec, shift)?;
+        // A record a few samples over the shortest is too short once shifted: that phase
+        // is left out, not the diagnosis.
+        let Ok(prep) = prepare::prepare_shifted(rec, shift) else {
+            continue;
+        };
         let cache = search::ColumnCache::default();
         let d = search::run(&prep, model, opts, &cache, true)?;
         runs.push((shift, (prep, cache, d)));

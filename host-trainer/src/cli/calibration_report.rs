@@ -6,6 +6,10 @@ use std::path::PathBuf;
 use rlg_benchmarks::diagnose::mismatch::{calibration_markdown, calibration_png_of, clean_results};
 use rlg_benchmarks::diagnose::CaseResult;
 
+/// Largest `results.json` read: a full run of either set writes well under 1 MB, so a larger
+/// file is the wrong one, and reading it whole could exhaust the machine.
+const MAX_RESULTS_BYTES: u64 = 64 << 20;
+
 /// Arguments of `rlg calibration-report`.
 #[derive(Debug, clap::Args)]
 pub struct CalibrationReportArgs {
@@ -27,6 +31,14 @@ pub fn run(args: &CalibrationReportArgs) -> anyhow::Result<()> {
     let mut alphas = Vec::new();
     for dir in &args.runs {
         let path = dir.join("results.json");
+        let size = std::fs::metadata(&path)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?
+            .len();
+        anyhow::ensure!(
+            size <= MAX_RESULTS_BYTES,
+            "{}: {size} bytes is not a benchmark's results.json (at most {MAX_RESULTS_BYTES})",
+            path.display()
+        );
         let text = std::fs::read_to_string(&path)
             .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
         let c = clean_results(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
@@ -35,7 +47,7 @@ pub fn run(args: &CalibrationReportArgs) -> anyhow::Result<()> {
     }
     anyhow::ensure!(
         !clean.is_empty(),
-        "no clean recordings in the {} runs given",
+        "no clean recordings in the runs given ({})",
         args.runs.len()
     );
     // Pooling runs made at different α would read each at a different exactness.
