@@ -1,7 +1,7 @@
 //! The benchmark's cases: a chamber profile, a gyro (base physics, noise) and a hidden term
 //! concealed at a chosen detectability, each from its own seeded draw.
 
-use rand::{RngExt, SeedableRng};
+use rand::{Rng, RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::detectability::{case_detectability, effect, noise_scale_peak, noise_sigmas};
@@ -363,13 +363,21 @@ pub fn case_runs(
     runs: usize,
 ) -> Result<(String, Option<Term>, Vec<rlg_simulate::Simulation>), BenchError> {
     let case = build_case(id, family, seed, &PhysicsModel::paper())?;
-    let sims = (0..runs as u64)
-        .map(|k| {
-            let s = seed.wrapping_add(id as u64) ^ k.wrapping_mul(0x9E37_79B9_7F4A_7C15);
-            simulate(&case.scenario, s)
-        })
+    let mut seeds = noise_seeds(id, seed);
+    let sims = (0..runs)
+        .map(|_| simulate(&case.scenario, seeds.next_u64()))
         .collect::<Result<Vec<_>, _>>()?;
     Ok((case.profile, case.hidden, sims))
+}
+
+/// The noise seeds of case `id`'s runs: their own ChaCha8 stream of the master seed, apart
+/// from the stream its draw uses. (Seeds computed as `seed + id` would give case k of seed S
+/// the noise of case k + 1 of seed S − 1, so a design seed would see the reported seed's
+/// noise sequences.)
+fn noise_seeds(id: usize, seed: u64) -> ChaCha8Rng {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(id as u64 | 1 << 63);
+    rng
 }
 
 /// The benchmark's case number of the `k`-th case of `family` with `per_term` cases per

@@ -226,3 +226,25 @@ fn quick_benchmark() {
     assert!(ok >= 15, "{ok}/{}", hidden.len());
     assert!(fa <= 2, "{fa} false alarms");
 }
+
+/// A case's noise seeds come from its own stream: case k of one master seed does not share
+/// its noise with case k ± 1 of the adjacent master seeds, nor with another case of its own.
+#[test]
+fn adjacent_seeds_do_not_share_noise_sequences() {
+    let seeds = |id, seed| {
+        let (_, _, runs) = case_runs(id, None, seed, 2).expect("runs");
+        runs.iter().map(|r| r.truth.seed).collect::<Vec<_>>()
+    };
+    let mut all = [
+        seeds(5, 1),
+        seeds(4, 2),
+        seeds(6, 0),
+        seeds(5, 2),
+        seeds(4, 1),
+    ]
+    .concat();
+    let n = all.len();
+    all.sort_unstable();
+    all.dedup();
+    assert_eq!(all.len(), n, "a noise seed is shared");
+}
