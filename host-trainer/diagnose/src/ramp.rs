@@ -407,6 +407,59 @@ mod tests {
         assert!(taken.len() <= 1, "rate random walk beat itself: {taken:?}");
     }
 
+    /// The slow check is calibrated on slow noise alone: 60 ramp-free records of white + B +
+    /// rate random walk (25 h of 100 s means; an offset and a trend as baseline, a quadratic
+    /// as the slow term) give p ≤ 5 % in at most 7 and p ≤ 1 % in at most 3 (binomial
+    /// tails 0.005 and 0.003 for a calibrated test). With K's white level as the pooled fit
+    /// left it (the 100 s level extrapolated from 300 s means), 12 % of records were at
+    /// p ≤ 1 % and 22 % at p ≤ 5 %.
+    #[test]
+    fn the_slow_check_is_calibrated_on_rate_random_walk() {
+        let days: Vec<f64> = (0..NB)
+            .map(|b| (b as f64 + 0.5) * BLOCK as f64 / 86_400.0)
+            .collect();
+        let square: Vec<f64> = days.iter().map(|d| d * d).collect();
+        let truth = NoiseParams {
+            rrw_dph_per_rt_h: 5e-4,
+            ..white_b()
+        };
+        let ps: Vec<f64> = (0..60u64)
+            .map(|k| {
+                let seed = 9000 + k;
+                let y = simulate_block_means(
+                    &truth,
+                    NB,
+                    BLOCK as f64,
+                    &mut replicate_rng(seed, 0),
+                    seed,
+                );
+                let base = vec![vec![1.0; NB], days.clone()];
+                let rrw = reml_noise(&base, &y, BLOCK, 1.0, true).expect("fits");
+                if rrw.rrw_dph_per_rt_h == 0.0 {
+                    return 1.0;
+                }
+                p_under_rrw(
+                    &base,
+                    std::slice::from_ref(&square),
+                    &y,
+                    &rrw,
+                    BLOCK,
+                    1.0,
+                    200,
+                    seed,
+                )
+                .expect("runs")
+            })
+            .collect();
+        let below = |a: f64| ps.iter().filter(|p| **p <= a).count();
+        assert!(
+            below(0.05) <= 7 && below(0.01) <= 3,
+            "p ≤ 5 %: {} of 60, p ≤ 1 %: {}",
+            below(0.05),
+            below(0.01)
+        );
+    }
+
     /// Rate random walk with no drift: its wander is not taken for a ramp (an α = 2 % test,
     /// so at most one of ten records may be).
     #[test]
