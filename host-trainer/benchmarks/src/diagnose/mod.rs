@@ -44,12 +44,11 @@ use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 
-use cases::build_case;
 use rlg_diagnose::candidates::Family;
 use rlg_diagnose::prepare::PhysicsModel;
 use rlg_diagnose::{diagnose, Options};
 use rlg_io::recording::Recording;
-use rlg_simulate::{simulate, truth_path, write_simulation};
+use rlg_simulate::{truth_path, write_simulation};
 use score::score;
 
 /// Benchmark size and seed.
@@ -157,8 +156,8 @@ pub fn run_benchmark(opts: &BenchOptions, out_dir: &Path) -> Result<Vec<CaseResu
         .collect();
     plan.into_par_iter()
         .map(|(id, fam)| {
-            let case = build_case(id, fam, opts.seed, &model)?;
-            let sim = simulate(&case.scenario, opts.seed.wrapping_add(id as u64))?;
+            // The same recording as `case_simulation` gives the close loop and the tests.
+            let (profile, _, sim) = case_simulation(id, fam, opts.seed)?;
             let csv: PathBuf = out_dir.join(format!("case{id:04}.csv"));
             write_simulation(&sim, &csv)?;
             // The diagnosis sees the CSV only.
@@ -173,17 +172,15 @@ pub fn run_benchmark(opts: &BenchOptions, out_dir: &Path) -> Result<Vec<CaseResu
             let secs = t0.elapsed().as_secs_f64();
             // Scored on the whole recording: its truth sidecar describes all of it, and the
             // samples cut change its D by a share of the order of the shift over its length.
-            let r =
-                score(id, case.profile, &rec, &truth_path(&csv), &d, &model, secs).map(|mut r| {
-                    r.alpha = opts.alpha;
-                    r.shift = opts.shift;
-                    r
-                });
+            let r = score(id, profile, &rec, &truth_path(&csv), &d, &model, secs).map(|mut r| {
+                r.alpha = opts.alpha;
+                r.shift = opts.shift;
+                r
+            });
             if !opts.keep {
                 let _ = std::fs::remove_file(&csv);
                 let _ = std::fs::remove_file(truth_path(&csv));
             }
-            let _ = case.hidden;
             r
         })
         .collect()

@@ -10,6 +10,7 @@ use super::*;
 use super::{run_benchmark, BenchOptions};
 use rlg_diagnose::prepare::prepare;
 use rlg_physics::Mechanism;
+use rlg_simulate::simulate;
 use rlg_simulate::NoiseParams;
 
 /// The truth sidecar reads back exactly (the TOML route around serde_json's
@@ -247,4 +248,18 @@ fn adjacent_seeds_do_not_share_noise_sequences() {
     all.sort_unstable();
     all.dedup();
     assert_eq!(all.len(), n, "a noise seed is shared");
+}
+
+/// A case's truth sidecar, written beside its recording, reads back with the noise seed it
+/// was simulated with.
+#[test]
+fn a_case_truth_reads_back_with_its_seed() {
+    let dir = std::env::temp_dir().join(format!("rlg-truth-seed-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let (_, _, sim) = case_simulation(251, None, 1).expect("case");
+    let csv = dir.join("case.csv");
+    rlg_simulate::write_simulation(&sim, &csv).expect("writes");
+    let truth = read_truth(&rlg_simulate::truth_path(&csv)).expect("reads back");
+    assert_eq!(truth.seed, sim.truth.seed);
+    let _ = std::fs::remove_dir_all(&dir);
 }
