@@ -82,6 +82,26 @@ pub const REML_FIT_BLOCKS: (usize, usize) = (900, 400);
 /// variance; `None` is a component left out.
 const LOG_RATIO: (f64, f64, f64) = (-3.0, 1.5, 0.25);
 
+/// [`LOG_RATIO`]'s grid, with `None` (the component left out) first.
+fn ratio_grid() -> Vec<Option<f64>> {
+    let (lo, hi, step) = LOG_RATIO;
+    std::iter::once(None)
+        .chain((0..=((hi - lo) / step).round() as usize).map(|k| Some(lo + step * k as f64)))
+        .collect()
+}
+
+/// Vertex of the parabola through `f` at `x` − step, `x`, `x` + step of [`LOG_RATIO`]'s
+/// grid (`x` itself where `f` is not convex there).
+fn vertex(x: f64, f: [f64; 3]) -> f64 {
+    let step = LOG_RATIO.2;
+    let den = f[0] - 2.0 * f[1] + f[2];
+    if den > 0.0 {
+        x + 0.5 * step * (f[0] - f[2]) / den
+    } else {
+        x
+    }
+}
+
 /// −2ℓ of REML and the profiled white block variance s² for fixed-effect columns `cols_b`
 /// and block means `y_b` under Σ = s²·Σ₀, Σ₀ the block-mean covariance of white noise of unit
 /// block variance, the bank at B² = `b2` and rate random walk at K² = `k2` (°/h units of
@@ -174,9 +194,7 @@ fn white_and_b_given_k(
     let k2 = pooled.rrw_dph_per_rt_h.powi(2);
     let white_var = |arw: f64| (arw * 60.0).powi(2) / (block as f64 * dt_s);
     let (lo, hi, step) = LOG_RATIO;
-    let grid: Vec<Option<f64>> = std::iter::once(None)
-        .chain((0..=((hi - lo) / step).round() as usize).map(|k| Some(lo + step * k as f64)))
-        .collect();
+    let grid = ratio_grid();
     let mut s2 = white_var(pooled.arw_dph_rt_h);
     let mut lu = None;
     for _ in 0..8 {
@@ -199,11 +217,10 @@ fn white_and_b_given_k(
         }
         lu = grid[k];
         if let Some(x) = lu.filter(|x| *x > lo + 1e-9 && *x < hi - 1e-9) {
-            let (f0, f1, f2) = (value(Some(x - step)), f[k], value(Some(x + step)));
-            let den = f0 - 2.0 * f1 + f2;
-            if den > 0.0 {
-                lu = Some(x + 0.5 * step * (f0 - f2) / den);
-            }
+            lu = Some(vertex(
+                x,
+                [value(Some(x - step)), f[k], value(Some(x + step))],
+            ));
         }
         let (_, s2_new) = eval(lu)?;
         let settled = (s2_new / s2 - 1.0).abs() < 1e-3;
@@ -261,9 +278,7 @@ fn reml_noise_pooled(
         reml_objective(cols_b, y_b, block, dt_s, u, v)
     };
     let (lo, hi, step) = LOG_RATIO;
-    let grid: Vec<Option<f64>> = std::iter::once(None)
-        .chain((0..=((hi - lo) / step).round() as usize).map(|k| Some(lo + step * k as f64)))
-        .collect();
+    let grid = ratio_grid();
     let value = |lu: Option<f64>, lv: Option<f64>| eval(lu, lv).map_or(f64::INFINITY, |e| e.0);
     // Best of a 1-D scan of one coordinate with the other held.
     let scan = |other: Option<f64>, along_u: bool| -> (Option<f64>, f64) {
@@ -304,13 +319,10 @@ fn reml_noise_pooled(
         if x <= lo + 1e-9 || x >= hi - 1e-9 {
             return Some(x);
         }
-        let (f0, f1, f2) = (f(Some(x - step)), f(Some(x)), f(Some(x + step)));
-        let den = f0 - 2.0 * f1 + f2;
-        Some(if den > 0.0 {
-            x + 0.5 * step * (f0 - f2) / den
-        } else {
-            x
-        })
+        Some(vertex(
+            x,
+            [f(Some(x - step)), f(Some(x)), f(Some(x + step))],
+        ))
     };
     lu = polish(lu, &|x| value(x, lv));
     lv = polish(lv, &|x| value(lu, x));
