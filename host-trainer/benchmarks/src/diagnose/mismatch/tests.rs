@@ -512,7 +512,7 @@ fn short_warmup_passes_its_heldout_check() {
 /// fail the Allan check. Rate random walk fitted in their place once took the drift with no
 /// word (`consistent`), then a rate ramp was preferred to it and aging found. With the noise
 /// model's 100 s level held (`reml::white_and_b_given_k`) the rate random walk REML fits
-/// (K 3.7e-4 °/h/√h: the day's drift a 1.7σ excursion of it) explains the drift as well as
+/// (K 3.7e-4 °/h/√h: the drift about a 1.7σ excursion of it over a day) explains the drift as well as
 /// the ramp at α, and the record is `consistent` with the K in a note: the slow check is
 /// calibrated (test `the_slow_check_is_calibrated_on_rate_random_walk`) and a day cannot
 /// tell this drift from that walk. What must hold either way: no other mechanism is named,
