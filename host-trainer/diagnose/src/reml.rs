@@ -82,6 +82,20 @@ pub const REML_FIT_BLOCKS: (usize, usize) = (900, 400);
 /// variance; `None` is a component left out.
 const LOG_RATIO: (f64, f64, f64) = (-3.0, 1.5, 0.25);
 
+/// Variance of one block mean of the bias-instability bank at B = 1 (°/h)², the scale of
+/// the B ratio on [`LOG_RATIO`]'s grid.
+fn unit_b_block_var(block: usize, dt_s: f64) -> f64 {
+    block_mean_autocov(
+        &NoiseParams {
+            bias_instability_dph: 1.0,
+            ..Default::default()
+        },
+        1,
+        block,
+        dt_s,
+    )[0]
+}
+
 /// [`LOG_RATIO`]'s grid, with `None` (the component left out) first.
 fn ratio_grid() -> Vec<Option<f64>> {
     let (lo, hi, step) = LOG_RATIO;
@@ -182,15 +196,7 @@ fn white_and_b_given_k(
     if nb <= cols_b.len() + 2 {
         return None;
     }
-    let tb = block_mean_autocov(
-        &NoiseParams {
-            bias_instability_dph: 1.0,
-            ..Default::default()
-        },
-        1,
-        block,
-        dt_s,
-    )[0];
+    let tb = unit_b_block_var(block, dt_s);
     let k2 = pooled.rrw_dph_per_rt_h.powi(2);
     let white_var = |arw: f64| (arw * 60.0).powi(2) / (block as f64 * dt_s);
     let (lo, hi, step) = LOG_RATIO;
@@ -260,15 +266,7 @@ fn reml_noise_pooled(
         return None;
     }
     // Mean block variances of the unit-B and unit-K components (block_mean_cov's diagonal).
-    let tb = block_mean_autocov(
-        &NoiseParams {
-            bias_instability_dph: 1.0,
-            ..Default::default()
-        },
-        1,
-        block,
-        dt_s,
-    )[0];
+    let tb = unit_b_block_var(block, dt_s);
     let l = block as f64 * dt_s;
     let tk = (1.0 / 60.0f64).powi(2) * (l * (nb as f64 - 1.0) / 2.0 + l / 3.0);
     // −2ℓ and the profiled s² at log ratios (None: component absent).
