@@ -17,8 +17,8 @@
 //!    coloured noise and for the look-elsewhere effect of the scans), and that of a generic
 //!    structure test (time chunks, temperature and dT/dt bands). Either test makes the
 //!    verdict other than `consistent`, so each is run at the level at which the two together
-//!    have false-alarm probability α (the α quantile of the smaller of each replicate's two
-//!    p-values), and their p-values are reported on that scale. A candidate counts when its
+//!    have false-alarm probability α (the record's smaller p-value ranked among the
+//!    replicates' smaller p-values), and their p-values are reported on that scale. A candidate counts when its
 //!    ΔBIC is below its threshold AND it lowers the held-out (4-fold, interleaved 1 h chunks)
 //!    residual of the 100 s means.
 //!    Where the noise model fails its check, a finding also needs evidence that does not

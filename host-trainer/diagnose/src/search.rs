@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
-use super::bootstrap::bootstrap;
+use super::bootstrap::{bootstrap, Test};
 use super::candidates::{node_lag, Family};
 use super::explain::explain;
 use super::linalg::{added_fit, combine, dot, Basis};
@@ -322,12 +322,18 @@ pub(crate) fn run(
     }
 
     let nulls = bootstrap(&ar, &gyro, &s, &points, var.as_ref(), prep, opts);
-    // Each test at the level that gives the two together false-alarm probability α.
-    let level = nulls.level(opts.alpha);
-    let (thr_all, thr_gen) = (nulls.best.quantile(level), nulls.structure.quantile(level));
-    let thr = |_: Family| thr_all;
-    // The generic test's second null, under rate random walk (see `structure_under_rrw`).
+    // The record's p-value in each test alone: the other test's breaks ties between the two
+    // (see `Nulls::either_p`).
     let struct_p1 = nulls.structure.p_value(s.gen_dbic);
+    let best_p1 = nulls
+        .best
+        .p_value(s.dbic.iter().copied().fold(f64::INFINITY, f64::min));
+    // Each test at the level that gives the two together false-alarm probability α.
+    let (thr_all, thr_gen) = (
+        nulls.threshold(opts.alpha, Test::Best, struct_p1),
+        nulls.threshold(opts.alpha, Test::Structure, best_p1),
+    );
+    let thr = |_: Family| thr_all;
     // With a rate ramp preferred to rate random walk, every p-value rests on that choice.
     let ramp_p = ramp_found.as_ref().map(|r| r.p_under_rrw);
     let floor = |p: f64| ramp_p.map_or(p, |q| p.max(q));
@@ -537,7 +543,7 @@ pub(crate) fn run(
             if separable {
                 p_counted = p_counted.min(floor(
                     nulls
-                        .either_p(nulls.best.p_value(s.dbic[i]))
+                        .either_p(nulls.best.p_value(s.dbic[i]), Test::Best, struct_p1)
                         .max(p_slow.unwrap_or(0.0)),
                 ));
             }
@@ -576,7 +582,7 @@ pub(crate) fn run(
             threshold: thr(f),
             p_value: floor(
                 nulls
-                    .either_p(nulls.best.p_value(s.dbic[i]))
+                    .either_p(nulls.best.p_value(s.dbic[i]), Test::Best, struct_p1)
                     .max(p_slow.unwrap_or(0.0)),
             ),
             p_value_alone: nulls.family[f.index()].p_value(s.dbic[i]),
@@ -632,11 +638,20 @@ pub(crate) fn run(
         && struct_p1 <= STRUCTURE_RRW_BELOW)
         .then(|| structure_under_rrw(prep, &base_b, &generic, opts))
         .flatten();
-    let structure_p = floor(nulls.either_p(struct_p_rrw.map_or(struct_p1, |q| struct_p1.max(q))));
+    let structure_p = floor(nulls.either_p(
+        struct_p_rrw.map_or(struct_p1, |q| struct_p1.max(q)),
+        Test::Structure,
+        best_p1,
+    ));
     p_counted = p_counted.min(structure_p);
     let any_sig = sig_counted || (s.gen_dbic < thr_gen && structure_p <= opts.alpha);
     if let Some((p1, q)) = struct_p_rrw
-        .map(|q| (nulls.either_p(struct_p1), nulls.either_p(q)))
+        .map(|q| {
+            (
+                nulls.either_p(struct_p1, Test::Structure, best_p1),
+                nulls.either_p(q, Test::Structure, best_p1),
+            )
+        })
         .filter(|(p1, q)| *p1 <= opts.alpha && *q > opts.alpha)
     {
         notes.push(format!(
