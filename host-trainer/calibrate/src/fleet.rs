@@ -15,8 +15,12 @@ use rayon::prelude::*;
 use rlg_io::recording::Recording;
 use rlg_train::model::Provenance;
 
+use crate::error::{chain, ensure, CalibrateError};
 use crate::report::{self, FileInfo, Inputs};
-use crate::{calibrate, HeldOut, Options, BOARD, LSSVM, RAW, STEPWISE};
+use crate::{calibrate, HeldOut, Model, Options};
+
+/// Reads and checks one recording of the fleet (units, plausibility).
+pub type ReadRecording = dyn Fn(&Path) -> Result<Recording, CalibrateError> + Sync;
 
 /// Acceptance limits on the board table's held-out figures; `None`: not checked.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -61,15 +65,21 @@ pub struct FleetRow {
 }
 
 /// The `*.csv` files of `dir`, sorted by name.
-pub fn recordings_in(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
-    let rd = std::fs::read_dir(dir).map_err(|e| anyhow::anyhow!("--dir {}: {e}", dir.display()))?;
+pub fn recordings_in(dir: &Path) -> Result<Vec<PathBuf>, CalibrateError> {
+    let rd = std::fs::read_dir(dir)
+        .map_err(|e| CalibrateError::Option(format!("--dir {}: {e}", dir.display())))?;
     let mut v: Vec<PathBuf> = rd
         .filter_map(Result::ok)
         .map(|e| e.path())
         .filter(|p| p.is_file() && p.extension().is_some_and(|e| e == "csv"))
         .collect();
     v.sort();
-    anyhow::ensure!(!v.is_empty(), "no *.csv recording in {}", dir.display());
+    ensure!(
+        !v.is_empty(),
+        Input,
+        "no *.csv recording in {}",
+        dir.display()
+    );
     Ok(v)
 }
 
@@ -84,8 +94,8 @@ fn one(
     opts: &Options,
     limits: &Limits,
     command: &str,
-    read: &(dyn Fn(&Path) -> anyhow::Result<Recording> + Sync),
-) -> anyhow::Result<FleetRow> {
+    read: &ReadRecording,
+) -> Result<FleetRow, CalibrateError> {
     let t0 = Instant::now();
     let rec = read(path)?;
     let provenance = Provenance::from_file(path, command)?;
@@ -100,13 +110,13 @@ fn one(
         test_recording: None,
     };
     report::write(&c, &inputs, &out.join(stem(path)))?;
-    let b = |n: &str| {
+    let b = |n: Model| {
         c.row(n)
             .and_then(|r| r.held_out.as_ref())
             .map_or(f64::NAN, |h| h.stability_dph)
     };
     let improvement = c
-        .row(BOARD)
+        .row(Model::Board)
         .and_then(|r| r.held_out.as_ref())
         .and_then(|h| h.improvement)
         .unwrap_or(f64::NAN);
@@ -115,8 +125,8 @@ fn one(
         failures.push("no held-out data to judge (one temperature cycle)".to_string());
     }
     if let Some(m) = limits.max_stability_dph {
-        if b(BOARD).is_nan() || b(BOARD) > m {
-            failures.push(format!("stability {:.3e} > {m:.3e} °/h", b(BOARD)));
+        if b(Model::Board).is_nan() || b(Model::Board) > m {
+            failures.push(format!("stability {:.3e} > {m:.3e} °/h", b(Model::Board)));
         }
     }
     if let Some(m) = limits.min_improvement {
@@ -134,7 +144,12 @@ fn one(
         },
         sigma: c.board.sigma,
         c: c.board.c,
-        stability_dph: [b(RAW), b(STEPWISE), b(LSSVM), b(BOARD)],
+        stability_dph: [
+            b(Model::Raw),
+            b(Model::Stepwise),
+            b(Model::Lssvm),
+            b(Model::Board),
+        ],
         improvement,
         f32_deviation_dph: c.board.f32_deviation_dph,
         pass: limits.any().then_some(failures.is_empty()),
@@ -151,9 +166,9 @@ pub fn calibrate_fleet(
     opts: &Options,
     limits: &Limits,
     command: &str,
-    read: &(dyn Fn(&Path) -> anyhow::Result<Recording> + Sync),
+    read: &ReadRecording,
     progress: &ProgressBar,
-) -> anyhow::Result<Vec<FleetRow>> {
+) -> Result<Vec<FleetRow>, CalibrateError> {
     let files = recordings_in(dir)?;
     report::prepare_dir(out)?;
     progress.set_length(files.len() as u64);
@@ -164,7 +179,7 @@ pub fn calibrate_fleet(
                 name: p
                     .file_name()
                     .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
-                error: Some(format!("{e:#}")),
+                error: Some(chain(&e)),
                 held_out: "—".into(),
                 sigma: f64::NAN,
                 c: f64::NAN,
@@ -256,4 +271,26 @@ pub fn summary_markdown(rows: &[FleetRow], window: usize, limits: &Limits, wall_
         failed
     );
     s
+}
+
+/// Writes `summary.csv` and `summary.md` into `out`; returns the Markdown.
+pub fn write_summaries(
+    out: &Path,
+    rows: &[FleetRow],
+    window: usize,
+    limits: &Limits,
+    wall: std::time::Duration,
+) -> Result<String, CalibrateError> {
+    let md = summary_markdown(rows, window, limits, wall.as_secs_f64());
+    for (name, text) in [
+        ("summary.csv", summary_csv(rows)),
+        ("summary.md", md.clone()),
+    ] {
+        let p = out.join(name);
+        rlg_io::atomic::write(&p, text.as_bytes()).map_err(|source| CalibrateError::Write {
+            path: p.display().to_string(),
+            source,
+        })?;
+    }
+    Ok(md)
 }

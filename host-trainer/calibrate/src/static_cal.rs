@@ -20,15 +20,17 @@
 use indicatif::ProgressBar;
 
 use compensator_core::Feature;
-use rlg_eval::baselines::PolyFit;
 use rlg_eval::metrics::stability::rms;
 use rlg_io::recording::Recording;
-use rlg_train::export;
+use rlg_train::export::{self, Precision};
 use rlg_train::lssvm::sparse::train_with_trend;
-use rlg_train::lssvm::tune::{fold_indices, CvPoint, Grid, Tuned, Validation, PARSIMONY};
+use rlg_train::lssvm::tune::{
+    fold_indices, log_space, CvPoint, Grid, Tuned, Validation, PARSIMONY,
+};
 use rlg_train::model::{ModelFile, Provenance};
 
-use crate::MAX_POLY_DEGREE;
+use crate::cv::{poly_cv_dph, poly_degree, poly_of};
+use crate::error::{ensure, CalibrateError};
 
 /// A block of a continuous stream is a soak plateau when T moves less than this over it, °C.
 pub const PLATEAU_MAX_C: f64 = 0.05;
@@ -69,7 +71,7 @@ pub struct StaticCalibration {
     pub points_from: String,
     /// The CV scheme, in words.
     pub validation: String,
-    /// Chosen polynomial degree and the CV RMS of degrees 1 … [`MAX_POLY_DEGREE`], °/h.
+    /// Chosen polynomial degree and the CV RMS of degrees 1 … [`crate::MAX_POLY_DEGREE`], °/h.
     pub poly_degree: usize,
     /// See [`StaticCalibration::poly_degree`].
     pub poly_cv_dph: Vec<f64>,
@@ -96,13 +98,17 @@ pub struct StaticCalibration {
 }
 
 /// The (T, output) points of `rec` (see the module doc).
-pub fn points_of(rec: &Recording, block: usize) -> anyhow::Result<(Vec<(f64, f64)>, String)> {
-    anyhow::ensure!(block >= 1, "--block must be at least 1");
+pub fn points_of(
+    rec: &Recording,
+    block: usize,
+) -> Result<(Vec<(f64, f64)>, String), CalibrateError> {
+    ensure!(block >= 1, Option, "--block must be at least 1");
     let good: Vec<usize> = (0..rec.len())
         .filter(|&k| rec.temp_c[k].is_finite() && rec.rate_dph[k].is_finite())
         .collect();
-    anyhow::ensure!(
+    ensure!(
         good.len() >= 2,
+        Input,
         "{} usable rows (finite temperature and rate); a static model needs points at several \
          temperatures",
         good.len()
@@ -169,28 +175,60 @@ fn validation_for(n: usize) -> Validation {
 /// Largest number of points the static grid search solves exactly.
 pub const MAX_POINTS: usize = 4000;
 
-fn log_space(lo: f64, hi: f64, n: usize) -> Vec<f64> {
-    let (a, b) = (lo.ln(), hi.ln());
-    (0..n)
-        .map(|i| (a + (b - a) * i as f64 / (n.max(2) - 1) as f64).exp())
-        .collect()
+/// The points as the models take them: T as the one feature.
+struct Points {
+    names: Vec<String>,
+    x: Vec<Vec<f64>>,
+    y: Vec<f64>,
+    t: Vec<f64>,
+}
+
+/// The points of `cal`, checked: enough of them, over a sweep of temperature, few enough to
+/// solve exactly.
+fn checked_points(
+    cal: &Recording,
+    block: usize,
+) -> Result<(Vec<(f64, f64)>, String, Points), CalibrateError> {
+    let (points, points_from) = points_of(cal, block)?;
+    let n = points.len();
+    let (lo, hi) = points
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
+            (a.min(p.0), b.max(p.0))
+        });
+    ensure!(
+        hi - lo >= 1.0,
+        Input,
+        "the points span {:.2} °C of temperature; a temperature model needs a sweep of at \
+         least 1 °C",
+        hi - lo
+    );
+    ensure!(
+        n >= 5,
+        Input,
+        "{n} points; a static model needs at least 5 (tuning leaves some out)"
+    );
+    let p = Points {
+        names: vec![Feature::TempC.name().to_string()],
+        x: points.iter().map(|p| vec![p.0]).collect(),
+        y: points.iter().map(|p| p.1).collect(),
+        t: points.iter().map(|p| p.0).collect(),
+    };
+    Ok((points, points_from, p))
 }
 
 /// σ and c of the LS-SVM with a linear trend in T ([`train_with_trend`]) by CV over the coarse
 /// grid (in parallel); the choice is the most regularised point within [`PARSIMONY`] of the
 /// best, as [`rlg_train::lssvm::tune::tune`] chooses.
-#[allow(clippy::too_many_arguments)]
 fn tune_with_trend(
-    names: &[String],
-    x: &[Vec<f64>],
-    y: &[f64],
-    folds: &[Vec<usize>],
-    validation: &Validation,
+    p: &Points,
+    (validation, folds): (&Validation, &[Vec<usize>]),
     grid: &Grid,
     budget: usize,
     progress: &ProgressBar,
 ) -> Tuned {
     use rayon::prelude::*;
+    let (names, x, y) = (&p.names, &p.x, &p.y);
     let n = x.len();
     let pairs: Vec<(f64, f64)> = log_space(grid.sigma.0, grid.sigma.1, grid.sigma_points)
         .into_iter()
@@ -262,110 +300,24 @@ fn tune_with_trend(
     }
 }
 
-/// Fits and checks the temperature-only model (see the module doc).
-pub fn calibrate_static(
-    cal: &Recording,
-    test: Option<&Recording>,
+/// The table: the CV choice, or the best-scoring grid point whose f32 evaluation meets the
+/// export limit; with the better-scoring points passed over.
+#[allow(clippy::type_complexity)]
+fn choose_table(
+    p: &Points,
+    tuned: &Tuned,
     opts: &StaticOptions,
     provenance: &Provenance,
-    progress: &ProgressBar,
-) -> anyhow::Result<StaticCalibration> {
-    anyhow::ensure!(
-        (1..=crate::MAX_BUDGET).contains(&opts.budget),
-        "--budget {}: the board table holds 1 to {} support vectors",
-        opts.budget,
-        crate::MAX_BUDGET
-    );
-    let (points, points_from) = points_of(cal, opts.block)?;
-    let n = points.len();
-    let (lo, hi) = points
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| {
-            (a.min(p.0), b.max(p.0))
-        });
-    anyhow::ensure!(
-        hi - lo >= 1.0,
-        "the points span {:.2} °C of temperature; a temperature model needs a sweep of at \
-         least 1 °C",
-        hi - lo
-    );
-    anyhow::ensure!(
-        n >= 5,
-        "{n} points; a static model needs at least 5 (tuning leaves some out)"
-    );
-    let x: Vec<Vec<f64>> = points.iter().map(|p| vec![p.0]).collect();
-    let y: Vec<f64> = points.iter().map(|p| p.1).collect();
-    let t: Vec<f64> = points.iter().map(|p| p.0).collect();
-    let names = vec![Feature::TempC.name().to_string()];
-    let validation = validation_for(n);
-    let folds = match &validation {
-        Validation::LeaveOneOut => (0..n).map(|i| vec![i]).collect(),
-        v => fold_indices(v, n)?,
-    };
-    anyhow::ensure!(
-        n <= MAX_POINTS,
-        "{n} points; the static model's grid search solves exactly on up to {MAX_POINTS}: \
-         average more samples per point with a larger --block"
-    );
-    let tuned = tune_with_trend(
-        &names,
-        &x,
-        &y,
-        &folds,
-        &validation,
-        &opts.grid,
-        opts.budget,
-        progress,
-    );
-    progress.finish_and_clear();
-
-    let fit = |idx: &[usize], d: usize| {
-        let xs: Vec<f64> = idx.iter().map(|&i| t[i]).collect();
-        let ys: Vec<f64> = idx.iter().map(|&i| y[i]).collect();
-        PolyFit::fit(&xs, &ys, d).ok()
-    };
-    let poly_cv_dph: Vec<f64> = (1..=MAX_POLY_DEGREE)
-        .map(|d| {
-            let mut ss = 0.0;
-            let mut count = 0usize;
-            for f in &folds {
-                let tr: Vec<usize> = (0..n).filter(|i| !f.contains(i)).collect();
-                let Some(p) = fit(&tr, d) else {
-                    return f64::NAN;
-                };
-                for &i in f {
-                    ss += (y[i] - p.predict(t[i])).powi(2);
-                    count += 1;
-                }
-            }
-            (ss / count.max(1) as f64).sqrt()
-        })
-        .collect();
-    let best = poly_cv_dph
-        .iter()
-        .copied()
-        .filter(|v| v.is_finite())
-        .fold(f64::INFINITY, f64::min);
-    anyhow::ensure!(best.is_finite(), "no polynomial in T could be fitted");
-    let poly_degree = 1 + poly_cv_dph
-        .iter()
-        .position(|v| *v <= best * (1.0 + PARSIMONY))
-        .unwrap_or(0);
-    let all: Vec<usize> = (0..n).collect();
-    let poly =
-        fit(&all, poly_degree).ok_or_else(|| anyhow::anyhow!("the polynomial did not fit"))?;
-    let poly_train: Vec<f64> = (0..n).map(|i| y[i] - poly.predict(t[i])).collect();
-
-    // The table: the CV choice, or the best-scoring grid point whose f32 evaluation meets the
-    // export limit.
+) -> Result<(CvPoint, ModelFile, Precision, Vec<(f64, f64, f64)>), CalibrateError> {
     let mut order: Vec<CvPoint> = tuned
         .curve
         .iter()
         .filter(|p| p.cv_rms_dph.is_finite())
         .copied()
         .collect();
-    anyhow::ensure!(
+    ensure!(
         !order.is_empty(),
+        Input,
         "no (σ, c) of the grid could be trained on every fold"
     );
     order.sort_by(|a, b| a.cv_rms_dph.total_cmp(&b.cv_rms_dph));
@@ -378,14 +330,21 @@ pub fn calibrate_static(
         },
     );
     let mut refused = Vec::new();
-    let mut chosen = None;
-    for p in order {
-        let lssvm = train_with_trend(&names, &x, &y, p.sigma, p.c, opts.budget, &[true])?;
+    for point in order {
+        let lssvm = train_with_trend(
+            &p.names,
+            &p.x,
+            &p.y,
+            point.sigma,
+            point.c,
+            opts.budget,
+            &[true],
+        )?;
         // The board runs at 1 Hz whatever the spacing of the points.
         let model = ModelFile::from_trained(
             lssvm,
-            &x,
-            &y,
+            &p.x,
+            &p.y,
             opts.rate_tau_s,
             1.0,
             None,
@@ -394,19 +353,56 @@ pub fn calibrate_static(
         let prec = export::precision(&model)?;
         let dev = prec.deviation_dph;
         if dev <= prec.limit_dph {
-            chosen = Some((p, model, prec));
-            break;
+            return Ok((point, model, prec, refused));
         }
-        refused.push((p.sigma, p.c, dev));
+        refused.push((point.sigma, point.c, dev));
     }
-    let Some((point, model, prec)) = chosen else {
-        anyhow::bail!(
-            "no (σ, c) of the grid gives a board table within the f32 limit of {:.0e} °/h \
-             (smallest departure {:.2e} °/h); lower --c-min",
-            export::EXPORT_LIMIT_DPH,
-            refused.iter().map(|r| r.2).fold(f64::INFINITY, f64::min)
-        );
+    Err(CalibrateError::NoBoardTable(format!(
+        "no (σ, c) of the grid gives a board table within the f32 limit of {:.0e} °/h \
+         (smallest departure {:.2e} °/h); lower --c-min",
+        export::EXPORT_LIMIT_DPH,
+        refused.iter().map(|r| r.2).fold(f64::INFINITY, f64::min)
+    )))
+}
+
+/// Fits and checks the temperature-only model (see the module doc).
+pub fn calibrate_static(
+    cal: &Recording,
+    test: Option<&Recording>,
+    opts: &StaticOptions,
+    provenance: &Provenance,
+    progress: &ProgressBar,
+) -> Result<StaticCalibration, CalibrateError> {
+    ensure!(
+        (1..=crate::MAX_BUDGET).contains(&opts.budget),
+        Option,
+        "--budget {}: the board table holds 1 to {} support vectors",
+        opts.budget,
+        crate::MAX_BUDGET
+    );
+    let (points, points_from, p) = checked_points(cal, opts.block)?;
+    let n = points.len();
+    let validation = validation_for(n);
+    let folds = match &validation {
+        Validation::LeaveOneOut => (0..n).map(|i| vec![i]).collect(),
+        v => fold_indices(v, n)?,
     };
+    ensure!(
+        n <= MAX_POINTS,
+        Input,
+        "{n} points; the static model's grid search solves exactly on up to {MAX_POINTS}: \
+         average more samples per point with a larger --block"
+    );
+    let tuned = tune_with_trend(&p, (&validation, &folds), &opts.grid, opts.budget, progress);
+    progress.finish_and_clear();
+
+    let poly_cv_dph = poly_cv_dph(&folds, &p.t, &p.y);
+    let poly_degree = poly_degree(&poly_cv_dph)?;
+    let all: Vec<usize> = (0..n).collect();
+    let poly = poly_of(&p.t, &p.y, &all, poly_degree)
+        .ok_or_else(|| CalibrateError::Input("the polynomial did not fit".to_string()))?;
+    let poly_train: Vec<f64> = (0..n).map(|i| p.y[i] - poly.predict(p.t[i])).collect();
+    let (point, model, prec, refused) = choose_table(&p, &tuned, opts, provenance)?;
 
     let (test_points, held_out_rms_dph) = match test {
         Some(r) => {

@@ -2,6 +2,8 @@
 //! lab); the end-to-end tests on simulated gyros are in `tests/lab`.
 
 use super::*;
+use compensator_core::SensorLimits;
+use rlg_train::dataset::Dataset;
 
 /// A chamber run: `cycles` trapezoids between `lo` and `hi` °C at `ramp` °C/min with `hold_s`
 /// holds, 1 Hz, bias = a quadratic in T + a dT/dt term + white noise of `noise` °/h.
@@ -67,9 +69,19 @@ fn three_cycles_train_on_two_by_leave_one_cycle_out_and_beat_raw() {
     .unwrap();
     assert_eq!(c.split.held_out, HeldOut::Cycles { train: 2, test: 1 });
     assert_eq!(c.split.cv_groups, 2, "{}", c.split.validation);
-    let b = |n: &str| c.row(n).unwrap().held_out.as_ref().unwrap().stability_dph;
-    assert!(b(LSSVM) < 0.5 * b(RAW), "{} vs {}", b(LSSVM), b(RAW));
-    assert!(b(BOARD) < 0.5 * b(RAW), "{} vs {}", b(BOARD), b(RAW));
+    let b = |n: Model| c.row(n).unwrap().held_out.as_ref().unwrap().stability_dph;
+    assert!(
+        b(Model::Lssvm) < 0.5 * b(Model::Raw),
+        "{} vs {}",
+        b(Model::Lssvm),
+        b(Model::Raw)
+    );
+    assert!(
+        b(Model::Board) < 0.5 * b(Model::Raw),
+        "{} vs {}",
+        b(Model::Board),
+        b(Model::Raw)
+    );
     assert!(c.board.f32_deviation_dph <= c.board.f32_limit_dph);
 }
 
@@ -86,7 +98,7 @@ fn one_cycle_has_no_held_out_data_and_says_so() {
     .unwrap();
     assert_eq!(c.split.held_out, HeldOut::Nothing);
     assert!(c.rows.iter().all(|r| r.held_out.is_none()));
-    assert!(c.row(LSSVM).unwrap().cv_rms_dph.is_some());
+    assert!(c.row(Model::Lssvm).unwrap().cv_rms_dph.is_some());
     assert!(c.notes.iter().any(|n| n.contains("No held-out data")));
 }
 
@@ -146,8 +158,13 @@ fn even_temperature_calibrates_and_says_so() {
     let c = calibrate(&rec, None, &opts, &provenance(), &ProgressBar::hidden()).unwrap();
     assert!(c.notes.iter().any(|n| n.contains("--even-temperature")));
     assert_eq!(c.split.cv_groups, 2);
-    let b = |n: &str| c.row(n).unwrap().held_out.as_ref().unwrap().stability_dph;
-    assert!(b(LSSVM) < 0.5 * b(RAW), "{} vs {}", b(LSSVM), b(RAW));
+    let b = |n: Model| c.row(n).unwrap().held_out.as_ref().unwrap().stability_dph;
+    assert!(
+        b(Model::Lssvm) < 0.5 * b(Model::Raw),
+        "{} vs {}",
+        b(Model::Lssvm),
+        b(Model::Raw)
+    );
 }
 
 /// A continuous chamber run with holds: the static model is fitted on the soak plateaus only.
@@ -209,7 +226,7 @@ fn temperature_glitches_are_dropped_and_named() {
     );
     assert!(!c0.notes.iter().any(|n| n.contains("sensor rules")));
     let b = |c: &Calibration| {
-        c.row(LSSVM)
+        c.row(Model::Lssvm)
             .unwrap()
             .held_out
             .as_ref()

@@ -94,274 +94,25 @@ const fn p(
     }
 }
 
+/// A term's role, meaning, equation and parameters.
+type Entry = (Role, &'static str, String, Vec<ParamDoc>);
+
 /// The reference entry of `m`.
 pub fn term_doc(m: Mechanism) -> TermDoc {
-    let (role, meaning, equation, params): (Role, &str, String, Vec<ParamDoc>) = match m {
-        Mechanism::EarthRate => (
-            Role::Bias,
-            "The Earth's rotation sensed by the input axis: a constant.",
-            format!(
-                "b(t) = ± Ω_e · sin φ,  Ω_e = {EARTH_RATE_DPH:.4} °/h\n\
-                 (+ for axis = \"up\", − for axis = \"down\")"
-            ),
-            vec![
-                p(
-                    "latitude_deg",
-                    "°",
-                    "Latitude φ, north positive.",
-                    None,
-                    "28.2",
-                ),
-                p(
-                    "axis",
-                    "—",
-                    "Direction of the input axis along the local vertical: \"up\" or \"down\".",
-                    Some("\"down\""),
-                    "\"down\"",
-                ),
-            ],
-        ),
-        Mechanism::StaticPoly => (
-            Role::Bias,
-            "Bias as a polynomial in the body temperature (the settled temperature dependence).",
-            "b(t) = Σ_k c_k · x^k,  x = (T_c − T_0) / S".into(),
-            vec![
-                p(
-                    "center_c",
-                    "°C",
-                    "Expansion centre T_0.",
-                    Some("0.0"),
-                    "0.0",
-                ),
-                p(
-                    "scale_c",
-                    "°C",
-                    "Scale S of the normalised temperature x (> 0).",
-                    Some("1.0"),
-                    "1.0",
-                ),
-                p(
-                    "coeffs_dph",
-                    "°/h",
-                    "Coefficients [c_0, c_1, …] (an array, any length; c_k in °/h per x^k).",
-                    None,
-                    "[-0.0096, 7.1445e-4, -2.6387e-5, 2.1772e-7]",
-                ),
-            ],
-        ),
-        Mechanism::RateTerms => (
-            Role::Bias,
-            "Bias from the rate of temperature change (the paper's Eq. (11) terms in dT/dt).",
-            "b(t) = a_1 · Ṫ_c + a_3 · Ṫ_c³ + a_T · T_c · Ṫ_c".into(),
-            vec![
-                p(
-                    "linear",
-                    "°/h per °C/s",
-                    "Coefficient a_1 of Ṫ_c.",
-                    Some("0.0"),
-                    "2.1572",
-                ),
-                p(
-                    "cubic",
-                    "°/h per (°C/s)³",
-                    "Coefficient a_3 of Ṫ_c³.",
-                    Some("0.0"),
-                    "-4.2769e3",
-                ),
-                p(
-                    "temp_linear",
-                    "°/h per (°C · °C/s)",
-                    "Coefficient a_T of T_c · Ṫ_c.",
-                    Some("0.0"),
-                    "1.9163e-5",
-                ),
-            ],
-        ),
-        Mechanism::SensorLag => (
-            Role::Sensor,
-            "The temperature sensor lags the body: its reading is a first-order lag.",
-            "τ · dT_s/dt = T_in − T_s,  T_s(0) = T_in(0)".into(),
-            vec![p(
-                "tau_s",
-                "s",
-                "Time constant τ (≥ 0; 0: no lag).",
-                None,
-                "300.0",
-            )],
-        ),
-        Mechanism::GradientLag => (
-            Role::Bias,
-            "Bias from a thermal gradient across the block that follows the heating rate \
-             with a lag.",
-            "b(t) = g · G\n\
-             τ · dG/dt = Ṫ_c − G,  G(0) = Ṫ_c(0)"
-                .into(),
-            vec![
-                p(
-                    "tau_s",
-                    "s",
-                    "Time constant τ of the gradient (≥ 0; 0: G = Ṫ_c).",
-                    None,
-                    "1800.0",
-                ),
-                p(
-                    "gain",
-                    "°/h per °C/s",
-                    "Gain g of the bias on the lagged rate G.",
-                    None,
-                    "0.5",
-                ),
-            ],
-        ),
-        Mechanism::Hysteresis => (
-            Role::Bias,
-            "Different bias on heating and cooling branches: a play (backlash) operator on \
-             the body temperature.",
-            "b(t) = h · (T_c − p) / (w/2)   (+h heating, −h cooling, linear in between)\n\
-             p = max(T_c − w/2, min(T_c + w/2, p_prev)),  p(0) = T_c(0)\n\
-             (T_n for T_c with a node lag)"
-                .into(),
-            vec![
-                p(
-                    "width_c",
-                    "°C",
-                    "Full width w of the play: the reversal of T_c that takes the bias from \
-                     one branch to the other (> 0).",
-                    None,
-                    "4.0",
-                ),
-                p(
-                    "height_dph",
-                    "°/h",
-                    "Half the gap h between the heating and cooling branches.",
-                    None,
-                    "0.002",
-                ),
-                NODE_LAG,
-            ],
-        ),
-        Mechanism::Warmup => (
-            Role::Bias,
-            "An exponential transient after power-on.",
-            "b(t) = A · exp(−(t − t_on) / τ) for t ≥ t_on, 0 before".into(),
-            vec![
-                p(
-                    "amplitude_dph",
-                    "°/h",
-                    "Amplitude A at power-on.",
-                    None,
-                    "0.01",
-                ),
-                p("tau_s", "s", "Time constant τ (> 0).", None, "1800.0"),
-                p(
-                    "t_on_s",
-                    "s",
-                    "Power-on time t_on, on the recording's time axis.",
-                    Some("0.0"),
-                    "0.0",
-                ),
-            ],
-        ),
-        Mechanism::ModeHop => (
-            Role::Bias,
-            "A bias step when the temperature rises past a threshold (a laser mode hop), \
-             undone only below a lower one.",
-            "b(t) = s while on, 0 while off\n\
-             on when T_c > T_on, off when T_c < T_on − Δ, unchanged in between;\n\
-             at the first sample on iff T_c > T_on\n\
-             (T_n for T_c with a node lag)"
-                .into(),
-            vec![
-                p(
-                    "temp_c",
-                    "°C",
-                    "Upper switching temperature T_on.",
-                    None,
-                    "40.0",
-                ),
-                p("step_dph", "°/h", "Bias step s.", None, "0.003"),
-                p(
-                    "hysteresis_c",
-                    "°C",
-                    "Switching hysteresis Δ (≥ 0).",
-                    None,
-                    "2.0",
-                ),
-                NODE_LAG,
-            ],
-        ),
-        Mechanism::Backscatter => (
-            Role::Bias,
-            "A ripple periodic in temperature: lock-in/backscatter coupling changing with \
-             the cavity length.",
-            "b(t) = A · sin(2π · T_n / P + φ)   (T_n = T_c without a node lag)".into(),
-            vec![
-                p(
-                    "period_c",
-                    "°C",
-                    "Period P in temperature (> 0).",
-                    None,
-                    "25.0",
-                ),
-                p("amplitude_dph", "°/h", "Amplitude A.", None, "0.0025"),
-                p("phase_rad", "rad", "Phase φ.", Some("0.0"), "0.0"),
-                NODE_LAG,
-            ],
-        ),
-        Mechanism::Periodic => (
-            Role::Bias,
-            "A ripple periodic in time (a cyclic disturbance), optionally only inside time \
-             windows.",
-            "b(t) = A · sin(2π · t / P + φ) inside a window (always when none are given),\n\
-             0 outside"
-                .into(),
-            vec![
-                p("period_s", "s", "Period P (> 0).", None, "3600.0"),
-                p("amplitude_dph", "°/h", "Amplitude A.", None, "0.002"),
-                p("phase_rad", "rad", "Phase φ.", Some("0.0"), "0.0"),
-                p(
-                    "windows_s",
-                    "s",
-                    "Active windows [[start, end], …], start included, end excluded; \
-                     empty: always active.",
-                    Some("[]"),
-                    "[[0.0, 43200.0]]",
-                ),
-            ],
-        ),
-        Mechanism::Aging => (
-            Role::Bias,
-            "A linear drift in time (aging of the gyro).",
-            "b(t) = r · t / 86400 s".into(),
-            vec![p(
-                "rate_dph_per_day",
-                "°/h per day",
-                "Drift rate r.",
-                None,
-                "0.001",
-            )],
-        ),
-        Mechanism::Heteroscedastic => (
-            Role::NoiseScale,
-            "White noise that grows away from a temperature (scales the angle random walk's σ).",
-            "σ(t) = σ_ARW · (1 + k · ((T_c − T_ref) / 30 °C)²)".into(),
-            vec![
-                p("k", "—", "Growth k of the noise σ.", None, "0.5"),
-                p(
-                    "ref_c",
-                    "°C",
-                    "Temperature of least noise T_ref.",
-                    Some("20.0"),
-                    "20.0",
-                ),
-            ],
-        ),
-        Mechanism::TempQuantization => (
-            Role::Sensor,
-            "The temperature reading is rounded to a quantum (the sensor's resolution).",
-            "T_s = q · round(T_in / q)".into(),
-            vec![p("step_c", "°C", "Quantum q (> 0).", None, "0.01")],
-        ),
+    let (role, meaning, equation, params) = match m {
+        Mechanism::EarthRate => earth_rate(),
+        Mechanism::StaticPoly => static_poly(),
+        Mechanism::RateTerms => rate_terms(),
+        Mechanism::SensorLag => sensor_lag(),
+        Mechanism::GradientLag => gradient_lag(),
+        Mechanism::Hysteresis => hysteresis(),
+        Mechanism::Warmup => warmup(),
+        Mechanism::ModeHop => mode_hop(),
+        Mechanism::Backscatter => backscatter(),
+        Mechanism::Periodic => periodic(),
+        Mechanism::Aging => aging(),
+        Mechanism::Heteroscedastic => heteroscedastic(),
+        Mechanism::TempQuantization => temp_quantization(),
     };
     TermDoc {
         mechanism: m,
@@ -370,6 +121,310 @@ pub fn term_doc(m: Mechanism) -> TermDoc {
         equation,
         params,
     }
+}
+
+fn earth_rate() -> Entry {
+    (
+        Role::Bias,
+        "The Earth's rotation sensed by the input axis: a constant.",
+        format!(
+            "b(t) = ± Ω_e · sin φ,  Ω_e = {EARTH_RATE_DPH:.4} °/h\n\
+             (+ for axis = \"up\", − for axis = \"down\")"
+        ),
+        vec![
+            p(
+                "latitude_deg",
+                "°",
+                "Latitude φ, north positive.",
+                None,
+                "28.2",
+            ),
+            p(
+                "axis",
+                "—",
+                "Direction of the input axis along the local vertical: \"up\" or \"down\".",
+                Some("\"down\""),
+                "\"down\"",
+            ),
+        ],
+    )
+}
+
+fn static_poly() -> Entry {
+    (
+        Role::Bias,
+        "Bias as a polynomial in the body temperature (the settled temperature dependence).",
+        "b(t) = Σ_k c_k · x^k,  x = (T_c − T_0) / S".into(),
+        vec![
+            p(
+                "center_c",
+                "°C",
+                "Expansion centre T_0.",
+                Some("0.0"),
+                "0.0",
+            ),
+            p(
+                "scale_c",
+                "°C",
+                "Scale S of the normalised temperature x (> 0).",
+                Some("1.0"),
+                "1.0",
+            ),
+            p(
+                "coeffs_dph",
+                "°/h",
+                "Coefficients [c_0, c_1, …] (an array, any length; c_k in °/h per x^k).",
+                None,
+                "[-0.0096, 7.1445e-4, -2.6387e-5, 2.1772e-7]",
+            ),
+        ],
+    )
+}
+
+fn rate_terms() -> Entry {
+    (
+        Role::Bias,
+        "Bias from the rate of temperature change (the paper's Eq. (11) terms in dT/dt).",
+        "b(t) = a_1 · Ṫ_c + a_3 · Ṫ_c³ + a_T · T_c · Ṫ_c".into(),
+        vec![
+            p(
+                "linear",
+                "°/h per °C/s",
+                "Coefficient a_1 of Ṫ_c.",
+                Some("0.0"),
+                "2.1572",
+            ),
+            p(
+                "cubic",
+                "°/h per (°C/s)³",
+                "Coefficient a_3 of Ṫ_c³.",
+                Some("0.0"),
+                "-4.2769e3",
+            ),
+            p(
+                "temp_linear",
+                "°/h per (°C · °C/s)",
+                "Coefficient a_T of T_c · Ṫ_c.",
+                Some("0.0"),
+                "1.9163e-5",
+            ),
+        ],
+    )
+}
+
+fn sensor_lag() -> Entry {
+    (
+        Role::Sensor,
+        "The temperature sensor lags the body: its reading is a first-order lag.",
+        "τ · dT_s/dt = T_in − T_s,  T_s(0) = T_in(0)".into(),
+        vec![p(
+            "tau_s",
+            "s",
+            "Time constant τ (≥ 0; 0: no lag).",
+            None,
+            "300.0",
+        )],
+    )
+}
+
+fn gradient_lag() -> Entry {
+    (
+        Role::Bias,
+        "Bias from a thermal gradient across the block that follows the heating rate \
+         with a lag.",
+        "b(t) = g · G\n\
+         τ · dG/dt = Ṫ_c − G,  G(0) = Ṫ_c(0)"
+            .into(),
+        vec![
+            p(
+                "tau_s",
+                "s",
+                "Time constant τ of the gradient (≥ 0; 0: G = Ṫ_c).",
+                None,
+                "1800.0",
+            ),
+            p(
+                "gain",
+                "°/h per °C/s",
+                "Gain g of the bias on the lagged rate G.",
+                None,
+                "0.5",
+            ),
+        ],
+    )
+}
+
+fn hysteresis() -> Entry {
+    (
+        Role::Bias,
+        "Different bias on heating and cooling branches: a play (backlash) operator on \
+         the body temperature.",
+        "b(t) = h · (T_c − p) / (w/2)   (+h heating, −h cooling, linear in between)\n\
+         p = max(T_c − w/2, min(T_c + w/2, p_prev)),  p(0) = T_c(0)\n\
+         (T_n for T_c with a node lag)"
+            .into(),
+        vec![
+            p(
+                "width_c",
+                "°C",
+                "Full width w of the play: the reversal of T_c that takes the bias from \
+                 one branch to the other (> 0).",
+                None,
+                "4.0",
+            ),
+            p(
+                "height_dph",
+                "°/h",
+                "Half the gap h between the heating and cooling branches.",
+                None,
+                "0.002",
+            ),
+            NODE_LAG,
+        ],
+    )
+}
+
+fn warmup() -> Entry {
+    (
+        Role::Bias,
+        "An exponential transient after power-on.",
+        "b(t) = A · exp(−(t − t_on) / τ) for t ≥ t_on, 0 before".into(),
+        vec![
+            p(
+                "amplitude_dph",
+                "°/h",
+                "Amplitude A at power-on.",
+                None,
+                "0.01",
+            ),
+            p("tau_s", "s", "Time constant τ (> 0).", None, "1800.0"),
+            p(
+                "t_on_s",
+                "s",
+                "Power-on time t_on, on the recording's time axis.",
+                Some("0.0"),
+                "0.0",
+            ),
+        ],
+    )
+}
+
+fn mode_hop() -> Entry {
+    (
+        Role::Bias,
+        "A bias step when the temperature rises past a threshold (a laser mode hop), \
+         undone only below a lower one.",
+        "b(t) = s while on, 0 while off\n\
+         on when T_c > T_on, off when T_c < T_on − Δ, unchanged in between;\n\
+         at the first sample on iff T_c > T_on\n\
+         (T_n for T_c with a node lag)"
+            .into(),
+        vec![
+            p(
+                "temp_c",
+                "°C",
+                "Upper switching temperature T_on.",
+                None,
+                "40.0",
+            ),
+            p("step_dph", "°/h", "Bias step s.", None, "0.003"),
+            p(
+                "hysteresis_c",
+                "°C",
+                "Switching hysteresis Δ (≥ 0).",
+                None,
+                "2.0",
+            ),
+            NODE_LAG,
+        ],
+    )
+}
+
+fn backscatter() -> Entry {
+    (
+        Role::Bias,
+        "A ripple periodic in temperature: lock-in/backscatter coupling changing with \
+         the cavity length.",
+        "b(t) = A · sin(2π · T_n / P + φ)   (T_n = T_c without a node lag)".into(),
+        vec![
+            p(
+                "period_c",
+                "°C",
+                "Period P in temperature (> 0).",
+                None,
+                "25.0",
+            ),
+            p("amplitude_dph", "°/h", "Amplitude A.", None, "0.0025"),
+            p("phase_rad", "rad", "Phase φ.", Some("0.0"), "0.0"),
+            NODE_LAG,
+        ],
+    )
+}
+
+fn periodic() -> Entry {
+    (
+        Role::Bias,
+        "A ripple periodic in time (a cyclic disturbance), optionally only inside time \
+         windows.",
+        "b(t) = A · sin(2π · t / P + φ) inside a window (always when none are given),\n\
+         0 outside"
+            .into(),
+        vec![
+            p("period_s", "s", "Period P (> 0).", None, "3600.0"),
+            p("amplitude_dph", "°/h", "Amplitude A.", None, "0.002"),
+            p("phase_rad", "rad", "Phase φ.", Some("0.0"), "0.0"),
+            p(
+                "windows_s",
+                "s",
+                "Active windows [[start, end], …], start included, end excluded; \
+                 empty: always active.",
+                Some("[]"),
+                "[[0.0, 43200.0]]",
+            ),
+        ],
+    )
+}
+
+fn aging() -> Entry {
+    (
+        Role::Bias,
+        "A linear drift in time (aging of the gyro).",
+        "b(t) = r · t / 86400 s".into(),
+        vec![p(
+            "rate_dph_per_day",
+            "°/h per day",
+            "Drift rate r.",
+            None,
+            "0.001",
+        )],
+    )
+}
+
+fn heteroscedastic() -> Entry {
+    (
+        Role::NoiseScale,
+        "White noise that grows away from a temperature (scales the angle random walk's σ).",
+        "σ(t) = σ_ARW · (1 + k · ((T_c − T_ref) / 30 °C)²)".into(),
+        vec![
+            p("k", "—", "Growth k of the noise σ.", None, "0.5"),
+            p(
+                "ref_c",
+                "°C",
+                "Temperature of least noise T_ref.",
+                Some("20.0"),
+                "20.0",
+            ),
+        ],
+    )
+}
+
+fn temp_quantization() -> Entry {
+    (
+        Role::Sensor,
+        "The temperature reading is rounded to a quantum (the sensor's resolution).",
+        "T_s = q · round(T_in / q)".into(),
+        vec![p("step_c", "°C", "Quantum q (> 0).", None, "0.01")],
+    )
 }
 
 /// The reference of every term kind, in the library's order ([`Mechanism::ALL`]).

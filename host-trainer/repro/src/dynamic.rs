@@ -22,13 +22,15 @@ use compensator_core::Feature;
 
 use crate::pipeline::{self, DynamicRun, Recipe};
 use crate::sparse_eval;
+use crate::ReproError;
+use rlg_calibrate::HeldOutScorer;
 use rlg_eval::baselines::{eq11, paper_candidates, stepwise, StepwiseFit, StepwiseOptions};
 use rlg_eval::metrics::allan::{
     angle_random_walk_dph_rt_h, bias_instability_dph, octave_clusters, overlapping_adev,
     rate_random_walk_dph_per_rt_h, AdevPoint,
 };
 use rlg_eval::metrics::compare::improvement_factor;
-use rlg_eval::metrics::stability::{bias_stability_gapless_dph, rms};
+use rlg_eval::metrics::stability::rms;
 use rlg_train::features::{self, FeatureSeries};
 use rlg_train::lssvm::sparse::Reduction;
 use rlg_train::lssvm::tune::{Grid, Tuned};
@@ -103,11 +105,39 @@ fn allan(rate: &[f64], dt_s: f64) -> AllanSummary {
     }
 }
 
+/// The rows of the dynamic reproduction, in report order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Row {
+    /// The uncompensated output.
+    Raw,
+    /// Eq. (11) with its published coefficients.
+    Eq11,
+    /// Stepwise regression refitted on the first cycle.
+    Stepwise,
+    /// The LS-SVM on [T, dT/dt].
+    Lssvm,
+    /// The 64-vector board table through the f32 `Compensator`.
+    Board,
+}
+
+impl Row {
+    /// The name the report prints.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Row::Raw => "raw (uncompensated)",
+            Row::Eq11 => "Eq. (11) as published",
+            Row::Stepwise => "stepwise regression, refitted",
+            Row::Lssvm => "LS-SVM on [T, dT/dt]",
+            Row::Board => "LS-SVM board table (f32, on the board's path)",
+        }
+    }
+}
+
 /// One model's scores.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ModelScore {
-    /// Model name as printed.
-    pub name: String,
+    /// Which model.
+    pub row: Row,
     /// TRAINING RMS on the first cycle's training samples, °/h (`None`: nothing was fitted).
     pub train_rms_dph: Option<f64>,
     /// HELD-OUT 100 s stability of the compensated output, °/h.
@@ -148,38 +178,31 @@ pub struct DynamicResult {
 }
 
 impl DynamicResult {
-    /// The score of the model named `name`.
-    pub fn model(&self, name: &str) -> Option<&ModelScore> {
-        self.models.iter().find(|m| m.name == name)
+    /// The score of `row`'s model.
+    pub fn model(&self, row: Row) -> Option<&ModelScore> {
+        self.models.iter().find(|m| m.row == row)
     }
 }
 
-/// Row names.
-pub const RAW: &str = "raw (uncompensated)";
-/// See [`RAW`].
-pub const EQ11: &str = "Eq. (11) as published";
-/// See [`RAW`].
-pub const STEPWISE: &str = "stepwise regression, refitted";
-/// See [`RAW`].
-pub const LSSVM: &str = "LS-SVM on [T, dT/dt]";
-/// See [`RAW`].
-pub const BOARD: &str = "LS-SVM board table (f32, on the board's path)";
-
 /// Runs the reproduction; `progress` follows the LS-SVM tuning.
-pub fn reproduce(opts: &DynamicOptions, progress: &ProgressBar) -> anyhow::Result<DynamicResult> {
-    anyhow::ensure!(opts.block >= 1, "block must be at least 1 sample");
-    anyhow::ensure!(
-        opts.window >= 2,
-        "the stability window must be at least 2 samples"
-    );
+pub fn reproduce(
+    opts: &DynamicOptions,
+    progress: &ProgressBar,
+) -> Result<DynamicResult, ReproError> {
+    let protocol = |m: &str| ReproError::Protocol(m.to_string());
+    if opts.block < 1 {
+        return Err(protocol("block must be at least 1 sample"));
+    }
+    if opts.window < 2 {
+        return Err(protocol("the stability window must be at least 2 samples"));
+    }
     let run = pipeline::dynamic_run_seeded(opts.seed)?;
     let rec = &run.recording;
     let n = rec.len();
     let split = rec.time_s.partition_point(|t| *t < run.train_end_s());
-    anyhow::ensure!(
-        split > 0 && split + 2 * opts.window <= n,
-        "the run has no held-out cycle"
-    );
+    if split == 0 || split + 2 * opts.window > n {
+        return Err(protocol("the run has no held-out cycle"));
+    }
     let feats = features::compute(
         &[Feature::TempC, Feature::TempRateCPerS],
         &rec.temp_c,
@@ -247,15 +270,17 @@ pub fn reproduce(opts: &DynamicOptions, progress: &ProgressBar) -> anyhow::Resul
     let lssvm_train_rms = rms(&lssvm_res);
 
     let t_test = &rec.time_s[split..];
-    let raw_b100 = bias_stability_gapless_dph(t_test, &rec.rate_dph[split..], opts.window)
-        .ok_or_else(|| anyhow::anyhow!("held-out part shorter than two windows"))?;
-    let score = |name: &str,
+    let scorer = HeldOutScorer::new(t_test, &[], &rec.rate_dph[split..], opts.window);
+    if scorer.raw_stability_dph().is_none() {
+        return Err(protocol("held-out part shorter than two windows"));
+    }
+    let score = |row: Row,
                  train_rms_dph: Option<f64>,
                  compensated_dph: Vec<f64>,
                  paper_b100_dph: Option<f64>|
      -> ModelScore {
         let test = &compensated_dph[split..];
-        let b = bias_stability_gapless_dph(t_test, test, opts.window).unwrap_or(f64::NAN);
+        let b = scorer.stability_dph(test).unwrap_or(f64::NAN);
         // Model error vs truth: compensated − noise = truth − model; noise = rate − truth.
         let err: Vec<f64> = (split..n)
             .map(|k| compensated_dph[k] - (rec.rate_dph[k] - run.true_bias_dph[k]))
@@ -263,10 +288,10 @@ pub fn reproduce(opts: &DynamicOptions, progress: &ProgressBar) -> anyhow::Resul
         let mean = err.iter().sum::<f64>() / err.len() as f64;
         let centred: Vec<f64> = err.iter().map(|e| e - mean).collect();
         ModelScore {
-            name: name.to_string(),
+            row,
             train_rms_dph,
             test_b100_dph: b,
-            improvement: improvement_factor(raw_b100, b),
+            improvement: scorer.improvement(b),
             test_model_err_rms_dph: rms(&centred).unwrap_or(f64::NAN),
             paper_b100_dph,
             allan: allan(test, 1.0),
@@ -281,30 +306,30 @@ pub fn reproduce(opts: &DynamicOptions, progress: &ProgressBar) -> anyhow::Resul
     board_full.extend_from_slice(&board_out);
     let models = vec![
         score(
-            RAW,
+            Row::Raw,
             None,
             rec.rate_dph.clone(),
             paper_value(paper::RAW_B100_DPH),
         ),
         score(
-            EQ11,
+            Row::Eq11,
             None,
             minus(&eq11_pred),
             paper_value(paper::STEPWISE_B100_DPH),
         ),
         score(
-            STEPWISE,
+            Row::Stepwise,
             sw_train_rms,
             minus(&sw_pred),
             paper_value(paper::STEPWISE_B100_DPH),
         ),
         score(
-            LSSVM,
+            Row::Lssvm,
             lssvm_train_rms,
             minus(&lssvm_pred),
             paper_value(paper::LSSVM_B100_DPH),
         ),
-        score(BOARD, None, board_full, None),
+        score(Row::Board, None, board_full, None),
     ];
     Ok(DynamicResult {
         options: opts.clone(),
@@ -327,7 +352,7 @@ impl DynamicResult {
     /// The reproduction table (Markdown): each model's held-out 100 s stability beside the
     /// paper's, improvement factors, training RMS and error against the truth.
     pub fn to_markdown(&self) -> String {
-        let raw = self.model(RAW).map_or(f64::NAN, |m| m.test_b100_dph);
+        let raw = self.model(Row::Raw).map_or(f64::NAN, |m| m.test_b100_dph);
         let mut s = format!(
             "| model | HELD-OUT {} s stability (°/h) | paper (°/h) | improvement | paper improvement \
              | TRAINING rms (°/h) | HELD-OUT model error vs truth, rms (°/h) |\n\
@@ -337,14 +362,14 @@ impl DynamicResult {
         for m in &self.models {
             let paper_imp = m
                 .paper_b100_dph
-                .filter(|_| m.name != RAW)
+                .filter(|_| m.row != Row::Raw)
                 .and_then(|p| improvement_factor(paper::RAW_B100_DPH, p));
             s.push_str(&format!(
                 "| {} | {:.5} | {} | {} | {} | {} | {:.5} |\n",
-                m.name,
+                m.row.name(),
                 m.test_b100_dph,
                 fmt_opt(m.paper_b100_dph, 4),
-                if m.name == RAW {
+                if m.row == Row::Raw {
                     "—".to_string()
                 } else {
                     fmt_opt(m.improvement, 2)
@@ -400,7 +425,7 @@ impl DynamicResult {
             let a = &m.allan;
             s.push_str(&format!(
                 "| {} | {} | {} | {} | {} |\n",
-                m.name,
+                m.row.name(),
                 a.arw_dph_rt_h.map_or("—".into(), |v| format!("{v:.2e}")),
                 a.bias_instability_dph
                     .map_or("—".into(), |v| format!("{v:.2e}")),
@@ -426,9 +451,14 @@ mod tests {
     #[test]
     fn dynamic_reproduction_on_the_shipped_scenario() {
         let r = reproduce(&DynamicOptions::default(), &ProgressBar::hidden()).unwrap();
-        let get = |n: &str| r.model(n).unwrap().clone();
-        let (raw, e11, sw, ls, board) =
-            (get(RAW), get(EQ11), get(STEPWISE), get(LSSVM), get(BOARD));
+        let get = |n: Row| r.model(n).unwrap().clone();
+        let (raw, e11, sw, ls, board) = (
+            get(Row::Raw),
+            get(Row::Eq11),
+            get(Row::Stepwise),
+            get(Row::Lssvm),
+            get(Row::Board),
+        );
         let table = r.to_markdown();
         assert!(
             (raw.test_b100_dph / paper::RAW_B100_DPH - 1.0).abs() < 0.25,

@@ -5,7 +5,7 @@
 use rlg_eval::metrics::block_means;
 use rlg_io::plot::{Figure, Series, Style};
 
-use super::dynamic::{DynamicResult, ModelScore, EQ11, LSSVM, RAW, STEPWISE};
+use super::dynamic::{DynamicResult, ModelScore, Row};
 
 /// Samples per plotted point of a rate: 100 s means at 1 Hz, as the paper plots.
 const BLOCK: usize = 100;
@@ -59,7 +59,7 @@ pub fn compensated(r: &DynamicResult, model: &ModelScore, title: &str) -> Figure
         let mean = m.iter().sum::<f64>() / m.len().max(1) as f64;
         m.iter().map(|x| x - mean).collect::<Vec<f64>>()
     };
-    let raw = r.model(RAW).map(|m| &m.compensated_dph[r.split..]);
+    let raw = r.model(Row::Raw).map(|m| &m.compensated_dph[r.split..]);
     let mut f = Figure::new(
         title,
         "time (h)",
@@ -69,7 +69,7 @@ pub fn compensated(r: &DynamicResult, model: &ModelScore, title: &str) -> Figure
         f.series.push(Series::new(
             &format!(
                 "raw: 100 s stability {:.4} °/h",
-                r.model(RAW).map_or(f64::NAN, |m| m.test_b100_dph)
+                r.model(Row::Raw).map_or(f64::NAN, |m| m.test_b100_dph)
             ),
             block_means(h, BLOCK),
             centred(raw),
@@ -79,7 +79,8 @@ pub fn compensated(r: &DynamicResult, model: &ModelScore, title: &str) -> Figure
     f.series.push(Series::new(
         &format!(
             "{}: 100 s stability {:.4} °/h",
-            model.name, model.test_b100_dph
+            model.row.name(),
+            model.test_b100_dph
         ),
         block_means(h, BLOCK),
         centred(&model.compensated_dph[r.split..]),
@@ -94,17 +95,17 @@ pub fn compensated_figures(r: &DynamicResult) -> Vec<(&'static str, Figure)> {
     for (file, name, title) in [
         (
             "fig5_stepwise.png",
-            STEPWISE,
+            Row::Stepwise,
             "Fig. 5: held-out cycles compensated by the stepwise regression (refitted)",
         ),
         (
             "fig5b_eq11.png",
-            EQ11,
+            Row::Eq11,
             "Fig. 5 (b): held-out cycles compensated by Eq. (11) as published",
         ),
         (
             "fig6_lssvm.png",
-            LSSVM,
+            Row::Lssvm,
             "Fig. 6: held-out cycles compensated by the LS-SVM",
         ),
     ] {
@@ -126,7 +127,7 @@ pub fn allan(r: &DynamicResult) -> Figure {
     f.log_y = true;
     for m in &r.models {
         f.series.push(Series::new(
-            &m.name,
+            m.row.name(),
             m.allan.points.iter().map(|p| p.tau_s).collect(),
             m.allan.points.iter().map(|p| p.adev).collect(),
             Style::LinePoints,

@@ -12,10 +12,12 @@
 //! * [`figures`] and [`report`]: the PNG figures and the report folder (`rlg report`).
 
 pub mod dynamic;
+mod error;
 pub mod figures;
 pub mod pipeline;
 pub mod report;
 pub mod sparse_eval;
 pub mod static_test;
 
+pub use error::ReproError;
 pub use rlg_eval::paper;

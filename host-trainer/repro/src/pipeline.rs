@@ -16,6 +16,8 @@ use rlg_train::lssvm::sparse::{train_reduced, Reduction};
 use rlg_train::lssvm::tune::{tune, Grid, Tuned};
 use rlg_train::lssvm::Lssvm;
 use rlg_train::model::{ModelFile, Provenance};
+
+use crate::ReproError;
 pub use rlg_train::protocol::{CV, RATE_TAU_S, SUPPORT_VECTORS, TRAIN_BLOCK};
 
 pub use rlg_simulate::shipped::{
@@ -90,7 +92,7 @@ pub fn train_first_cycle(
     sigma: f64,
     c: f64,
     command: &str,
-) -> anyhow::Result<ModelFile> {
+) -> Result<ModelFile, ReproError> {
     let data = first_cycle_data(run, recipe.block)?;
     let model = match recipe.reduction {
         None => Lssvm::train(&data.features, &data.x, &data.y_dph, sigma, c)?,
@@ -124,21 +126,22 @@ pub fn train_first_cycle(
 }
 
 /// Simulates the shipped dynamic scenario with the reference seed.
-pub fn dynamic_run() -> anyhow::Result<DynamicRun> {
+pub fn dynamic_run() -> Result<DynamicRun, ReproError> {
     dynamic_run_seeded(DYNAMIC_SEED)
 }
 
 /// Simulates the shipped dynamic scenario with `seed`.
-pub fn dynamic_run_seeded(seed: u64) -> anyhow::Result<DynamicRun> {
+pub fn dynamic_run_seeded(seed: u64) -> Result<DynamicRun, ReproError> {
     let scenario = rlg_simulate::shipped::dynamic()?;
     let sim = simulate(&scenario, seed)?;
     let (recording, true_bias_dph) = (sim.recording, sim.truth.bias_dph);
     let cycles = cycle_spans(&recording.time_s, &recording.temp_c);
-    anyhow::ensure!(
-        cycles.len() >= 2,
-        "the reference run has {} temperature cycle(s); need one to train and one to test",
-        cycles.len()
-    );
+    if cycles.len() < 2 {
+        return Err(ReproError::Protocol(format!(
+            "the reference run has {} temperature cycle(s); need one to train and one to test",
+            cycles.len()
+        )));
+    }
     Ok(DynamicRun {
         recording,
         true_bias_dph,
@@ -148,7 +151,7 @@ pub fn dynamic_run_seeded(seed: u64) -> anyhow::Result<DynamicRun> {
 
 /// The first cycle's training set: [T, dT/dt] from the board's estimator → output, means of
 /// `block` samples.
-pub fn first_cycle_data(run: &DynamicRun, block: usize) -> anyhow::Result<Dataset> {
+pub fn first_cycle_data(run: &DynamicRun, block: usize) -> Result<Dataset, ReproError> {
     let sel = RecordingSelection {
         from_s: None,
         to_s: Some(run.train_end_s()),
@@ -163,14 +166,14 @@ pub fn tune_first_cycle(
     run: &DynamicRun,
     grid: &Grid,
     progress: &ProgressBar,
-) -> anyhow::Result<Tuned> {
+) -> Result<Tuned, ReproError> {
     let d = first_cycle_data(run, TRAIN_BLOCK)?;
     Ok(tune(&d.features, &d.x, &d.y_dph, &CV, grid, progress)?)
 }
 
 /// The default model: [`dynamic_run`], then a fixed-size LS-SVM of [`SUPPORT_VECTORS`]
 /// vectors on the first cycle's 100 s means with [`SIGMA`] and [`C`].
-pub fn default_model() -> anyhow::Result<(DynamicRun, ModelFile)> {
+pub fn default_model() -> Result<(DynamicRun, ModelFile), ReproError> {
     let run = dynamic_run()?;
     let recipe = Recipe {
         reduction: Some((Reduction::FIXED_SIZE, SUPPORT_VECTORS)),
@@ -181,7 +184,7 @@ pub fn default_model() -> anyhow::Result<(DynamicRun, ModelFile)> {
 }
 
 /// The Rust source of the default table, exactly as committed in the firmware.
-pub fn default_table_source() -> anyhow::Result<String> {
+pub fn default_table_source() -> Result<String, ReproError> {
     let (_, model) = default_model()?;
     Ok(rlg_train::export::table_source(
         &model,

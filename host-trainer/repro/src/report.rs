@@ -3,12 +3,12 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::Context;
+use crate::ReproError;
 
 use rlg_eval::metrics::compare::{markdown_table, FigureOfMerit};
 use rlg_io::plot::{render_png, Figure};
 
-use super::dynamic::{DynamicResult, BOARD, EQ11, LSSVM, RAW, STEPWISE};
+use super::dynamic::{DynamicResult, Row};
 use super::figures;
 use super::paper;
 use super::static_test::StaticResult;
@@ -16,7 +16,7 @@ use super::static_test::StaticResult;
 /// The headline comparison: each published figure beside ours (static maxima are TRAINING
 /// errors, as the paper's are; dynamic stabilities are HELD-OUT).
 pub fn headline(st: &StaticResult, dy: &DynamicResult) -> Vec<FigureOfMerit> {
-    let b = |n: &str| dy.model(n).map_or(f64::NAN, |m| m.test_b100_dph);
+    let b = |n: Row| dy.model(n).map_or(f64::NAN, |m| m.test_b100_dph);
     let w = dy.options.window;
     let published = |v: f64| (w == 100).then_some(v);
     let dynamic = |what: &str| format!("dynamic, HELD-OUT {w} s stability, {what}");
@@ -48,38 +48,43 @@ pub fn headline(st: &StaticResult, dy: &DynamicResult) -> Vec<FigureOfMerit> {
         FigureOfMerit::new(
             &dynamic("raw"),
             "°/h",
-            b(RAW),
+            b(Row::Raw),
             published(paper::RAW_B100_DPH),
         ),
         FigureOfMerit::new(
             &dynamic("Eq. (11) as published"),
             "°/h",
-            b(EQ11),
+            b(Row::Eq11),
             published(paper::STEPWISE_B100_DPH),
         ),
         FigureOfMerit::new(
             &dynamic("stepwise refitted"),
             "°/h",
-            b(STEPWISE),
+            b(Row::Stepwise),
             published(paper::STEPWISE_B100_DPH),
         ),
         FigureOfMerit::new(
             &dynamic("LS-SVM"),
             "°/h",
-            b(LSSVM),
+            b(Row::Lssvm),
             published(paper::LSSVM_B100_DPH),
         ),
-        FigureOfMerit::new(&dynamic("64-vector board table"), "°/h", b(BOARD), None),
+        FigureOfMerit::new(
+            &dynamic("64-vector board table"),
+            "°/h",
+            b(Row::Board),
+            None,
+        ),
         FigureOfMerit::new(
             "improvement factor, stepwise refitted",
             "",
-            b(RAW) / b(STEPWISE),
+            b(Row::Raw) / b(Row::Stepwise),
             published(paper::RAW_B100_DPH / paper::STEPWISE_B100_DPH),
         ),
         FigureOfMerit::new(
             "improvement factor, LS-SVM",
             "",
-            b(RAW) / b(LSSVM),
+            b(Row::Raw) / b(Row::Lssvm),
             published(paper::RAW_B100_DPH / paper::LSSVM_B100_DPH),
         ),
     ]
@@ -156,17 +161,25 @@ pub fn figures(st: &StaticResult, dy: &DynamicResult) -> Vec<(&'static str, Figu
 }
 
 /// Writes `README.md` and the figures into `dir` (created if missing); returns the paths.
-pub fn write(dir: &Path, st: &StaticResult, dy: &DynamicResult) -> anyhow::Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+pub fn write(
+    dir: &Path,
+    st: &StaticResult,
+    dy: &DynamicResult,
+) -> Result<Vec<PathBuf>, ReproError> {
+    let failed = |what: String| {
+        move |e: Box<dyn std::error::Error + Send + Sync>| ReproError::Write { what, source: e }
+    };
+    std::fs::create_dir_all(dir)
+        .map_err(|e| failed(format!("creating {}", dir.display()))(e.into()))?;
     let mut written = Vec::new();
     for (name, fig) in figures(st, dy) {
         let p = dir.join(name);
-        render_png(&fig, &p).with_context(|| format!("writing {}", p.display()))?;
+        render_png(&fig, &p).map_err(|e| failed(format!("writing {}", p.display()))(e.into()))?;
         written.push(p);
     }
     let md = dir.join("README.md");
     rlg_io::atomic::write(&md, markdown(st, dy).as_bytes())
-        .with_context(|| format!("writing {}", md.display()))?;
+        .map_err(|e| failed(format!("writing {}", md.display()))(e.into()))?;
     written.push(md);
     Ok(written)
 }

@@ -8,11 +8,11 @@
 //!   estimator state at the split is the board's), outputs kept from the split on;
 //! * the f64 model on the same features ([`features::compute`]), output raw − (f(x) − ref).
 
-use compensator_core::{Compensator, Feature, SensorLimits};
+use compensator_core::Feature;
 
 use crate::pipeline::{self, DynamicRun, Recipe};
+use crate::ReproError;
 use rlg_eval::metrics::stability::bias_stability_dph;
-use rlg_train::export;
 use rlg_train::features;
 use rlg_train::lssvm::sparse::Reduction;
 use rlg_train::model::ModelFile;
@@ -44,25 +44,16 @@ pub struct HeldOut {
 /// The board's output on the held-out cycles of `run`: `model` converted to the f32 table
 /// and run sample by sample through `compensator_core::Compensator` from the start of the
 /// record (so the estimator's state at the split is the board's), outputs from the split on.
-pub fn board_output(run: &DynamicRun, model: &ModelFile) -> anyhow::Result<Vec<f64>> {
+pub fn board_output(run: &DynamicRun, model: &ModelFile) -> Result<Vec<f64>, ReproError> {
     let rec = &run.recording;
     let split = rec.time_s.partition_point(|t| *t < run.train_end_s());
-    let f32_model = export::to_f32::<2>(model)?;
-    let mut comp = Compensator::new(f32_model.as_model(), SensorLimits::DEFAULT);
-    anyhow::ensure!(comp.table_ok(), "exported table fails validation");
-    let mut board = Vec::with_capacity(rec.len() - split);
-    for k in 0..rec.len() {
-        let out = comp.update(rec.temp_c[k] as f32, rec.rate_dph[k] as f32);
-        if k >= split {
-            board.push(f64::from(out.rate_dph));
-        }
-    }
-    Ok(board)
+    let keep: Vec<usize> = (split..rec.len()).collect();
+    Ok(rlg_calibrate::board_output(rec, model, &keep)?)
 }
 
 /// Compensates the held-out cycles of `run` with `model` both ways (see the module doc);
 /// returns the 100 s stabilities of the raw, board and f64 outputs.
-pub fn evaluate(run: &DynamicRun, model: &ModelFile) -> anyhow::Result<(f64, f64, f64)> {
+pub fn evaluate(run: &DynamicRun, model: &ModelFile) -> Result<(f64, f64, f64), ReproError> {
     let rec = &run.recording;
     let split = rec.time_s.partition_point(|t| *t < run.train_end_s());
     let board = board_output(run, model)?;
@@ -81,7 +72,12 @@ pub fn evaluate(run: &DynamicRun, model: &ModelFile) -> anyhow::Result<(f64, f64
 }
 
 /// Trains with `recipe` on the first cycle and evaluates on the others.
-pub fn held_out(run: &DynamicRun, recipe: &Recipe, sigma: f64, c: f64) -> anyhow::Result<HeldOut> {
+pub fn held_out(
+    run: &DynamicRun,
+    recipe: &Recipe,
+    sigma: f64,
+    c: f64,
+) -> Result<HeldOut, ReproError> {
     let t0 = std::time::Instant::now();
     let model = pipeline::train_first_cycle(
         run,

@@ -15,6 +15,8 @@ use rlg_io::table1::Table1Row;
 use rlg_train::lssvm::tune::{tune, Grid, Tuned, Validation};
 use rlg_train::lssvm::Lssvm;
 
+use crate::ReproError;
+
 /// One Table 1 point with every model's errors (prediction − measurement, °/h).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StaticRow {
@@ -173,7 +175,7 @@ pub fn reproduce(
     rows: &[Table1Row],
     grid: &Grid,
     progress: &ProgressBar,
-) -> anyhow::Result<StaticResult> {
+) -> Result<StaticResult, ReproError> {
     let quadratic = static_quadratic(rows)?;
     let names = vec!["temp_c".to_string()];
     let x: Vec<Vec<f64>> = rows.iter().map(|r| vec![r.temp_c]).collect();

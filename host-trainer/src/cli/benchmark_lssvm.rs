@@ -160,7 +160,7 @@ pub fn run_sparse(a: &SparseReportArgs) -> anyhow::Result<()> {
     let rows = sparse_eval::standard_recipes(a.budget)
         .iter()
         .map(|r| sparse_eval::held_out(&run, r, a.sigma, a.c))
-        .collect::<anyhow::Result<Vec<_>>>()?;
+        .collect::<Result<Vec<_>, _>>()?;
     println!(
         "trained on the first cycle (to {:.0} s), held out: cycles 2..{} ({:.0} s); σ = {}, c = {}",
         run.train_end_s(),

@@ -3,7 +3,6 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
 use clap::Args;
 
 use rlg_calibrate::fleet::{self, Limits};
@@ -76,8 +75,14 @@ pub fn run(a: &TrainFleetArgs, command_line: &str) -> anyhow::Result<()> {
         min_improvement: a.min_improvement,
     };
     let t0 = std::time::Instant::now();
-    let units = a.units.clone();
-    let read = move |p: &std::path::Path| super::read_recording(p, &units);
+    let units = a.units.choice();
+    let read = move |p: &std::path::Path| -> Result<_, rlg_calibrate::CalibrateError> {
+        let (rec, warnings) = rlg_io::recording::Recording::read_checked(p, &units)?;
+        for w in warnings {
+            eprintln!("warning: {}: {w}", p.display());
+        }
+        Ok(rec)
+    };
     let rows = fleet::calibrate_fleet(
         &a.dir,
         &a.out,
@@ -87,15 +92,7 @@ pub fn run(a: &TrainFleetArgs, command_line: &str) -> anyhow::Result<()> {
         &read,
         &progress("calibrating the fleet"),
     )?;
-    let md = fleet::summary_markdown(&rows, opts.window, &limits, t0.elapsed().as_secs_f64());
-    for (name, text) in [
-        ("summary.csv", fleet::summary_csv(&rows)),
-        ("summary.md", md.clone()),
-    ] {
-        let p = a.out.join(name);
-        rlg_io::atomic::write(&p, text.as_bytes())
-            .with_context(|| format!("writing {}", p.display()))?;
-    }
+    let md = fleet::write_summaries(&a.out, &rows, opts.window, &limits, t0.elapsed())?;
     print!("{md}");
     let failed = rows.iter().filter(|r| r.pass == Some(false)).count();
     anyhow::ensure!(

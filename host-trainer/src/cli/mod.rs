@@ -149,50 +149,34 @@ pub enum RateUnitArg {
 }
 
 impl UnitArgs {
-    fn units(&self) -> Units {
-        Units {
-            time: match self.time_unit {
-                None | Some(TimeUnitArg::S) => TimeUnit::S,
-                Some(TimeUnitArg::Ms) => TimeUnit::Ms,
-                Some(TimeUnitArg::Us) => TimeUnit::Us,
-            },
-            temp: match self.temp_unit {
-                None | Some(TempUnitArg::C) => TempUnit::C,
-                Some(TempUnitArg::K) => TempUnit::K,
-            },
-            rate: match self.rate_unit {
-                None | Some(RateUnitArg::Dph) => RateUnit::Dph,
-                Some(RateUnitArg::RadS) => RateUnit::RadS,
-                Some(RateUnitArg::DegS) => RateUnit::DegS,
-            },
-        }
-    }
-
-    fn given(&self) -> UnitsGiven {
-        UnitsGiven {
-            time: self.time_unit.is_some(),
-            temp: self.temp_unit.is_some(),
-            rate: self.rate_unit.is_some(),
+    /// The units as the reader takes them.
+    pub fn choice(&self) -> UnitChoice {
+        UnitChoice {
+            time: self.time_unit.map(|u| match u {
+                TimeUnitArg::S => TimeUnit::S,
+                TimeUnitArg::Ms => TimeUnit::Ms,
+                TimeUnitArg::Us => TimeUnit::Us,
+            }),
+            temp: self.temp_unit.map(|u| match u {
+                TempUnitArg::C => TempUnit::C,
+                TempUnitArg::K => TempUnit::K,
+            }),
+            rate: self.rate_unit.map(|u| match u {
+                RateUnitArg::Dph => RateUnit::Dph,
+                RateUnitArg::RadS => RateUnit::RadS,
+                RateUnitArg::DegS => RateUnit::DegS,
+            }),
         }
     }
 }
 
-/// Reads a recording, converts it from the units given and refuses implausible ones (the
-/// reasons and the flags that convert them in one error); prints the warnings that remain.
-pub fn read_recording(
-    path: &std::path::Path,
-    units: &UnitArgs,
-) -> anyhow::Result<rlg_io::recording::Recording> {
-    let mut rec = rlg_io::recording::Recording::read_csv(path)?;
-    rec.convert_units(units.units());
-    let errors = rec.unit_errors(units.given());
-    anyhow::ensure!(
-        errors.is_empty(),
-        "{}: {}",
-        path.display(),
-        errors.join("; ")
-    );
-    warn_units(path, &rec);
+/// Reads a recording in the units given ([`Recording::read_checked`]: implausible units are
+/// refused) and prints the warnings that remain on stderr, naming the file.
+pub fn read_recording(path: &std::path::Path, units: &UnitArgs) -> anyhow::Result<Recording> {
+    let (rec, warnings) = Recording::read_checked(path, &units.choice())?;
+    for w in warnings {
+        eprintln!("warning: {}: {w}", path.display());
+    }
     Ok(rec)
 }
 
@@ -217,15 +201,7 @@ pub fn check_output_file(path: &std::path::Path, flag: &str) -> anyhow::Result<(
     Ok(())
 }
 
-/// Prints the recording's warnings ([`rlg_io::recording::Recording::unit_warnings`]) on
-/// stderr, naming the file.
-pub fn warn_units(path: &std::path::Path, rec: &rlg_io::recording::Recording) {
-    for w in rec.unit_warnings() {
-        eprintln!("warning: {}: {w}", path.display());
-    }
-}
-
-use rlg_io::recording::{RateUnit, TempUnit, TimeUnit, Units, UnitsGiven};
+use rlg_io::recording::{RateUnit, Recording, TempUnit, TimeUnit, UnitChoice};
 
 /// The command line as a reproducible string: `rlg` followed by the arguments, each quoted
 /// when it holds a space (the program's own path is not recorded).

@@ -2,15 +2,12 @@
 
 use std::path::PathBuf;
 
-use anyhow::Context;
 use clap::Args;
 
+use rlg_calibrate::train::{train_model, TrainData, TrainOptions};
 use rlg_io::progress::progress;
-use rlg_train::dataset::{self, Dataset, RecordingSelection};
-use rlg_train::features::FeatureRows;
-use rlg_train::lssvm::sparse::{train_reduced, Reduction};
-use rlg_train::lssvm::tune::{tune, Grid, Validation};
-use rlg_train::model::{ModelFile, Provenance};
+use rlg_train::dataset::{self, RecordingSelection};
+use rlg_train::model::Provenance;
 
 /// Arguments of `rlg train`.
 #[derive(Debug, Args)]
@@ -57,150 +54,47 @@ pub struct TrainArgs {
     pub out: PathBuf,
 }
 
-/// Table 1's rows in one block, as a recording's are.
-fn flat(d: Dataset) -> Dataset<FeatureRows> {
-    let mut x = FeatureRows::with_capacity(d.features.len(), d.x.len());
-    for r in &d.x {
-        x.push_row(r.iter().copied());
-    }
-    Dataset {
-        x,
-        features: d.features,
-        y_dph: d.y_dph,
-        dt_s: d.dt_s,
-    }
-}
-
-/// Rows as vectors, for the solvers that take them (the exact solve, Table 1's tuning): a
-/// training set held this way costs 56 bytes a row, so the large ones stay in one block.
-fn vecs(x: &FeatureRows) -> Vec<Vec<f64>> {
-    (0..x.len()).map(|k| x[k].to_vec()).collect()
-}
-
 /// Runs `rlg train`.
 pub fn run(a: &TrainArgs, command_line: &str) -> anyhow::Result<()> {
     super::check_output_file(&a.out, "--out")?;
-    let mut rec = None;
-    let sel = RecordingSelection {
-        from_s: a.from_s,
-        to_s: a.to_s,
-        block: a.block,
-        rate_tau_s: a.rate_tau_s,
-    };
-    let (path, mut data) = match (&a.table1, &a.recording) {
-        (Some(p), _) => (p, flat(dataset::table1_from_csv(p)?)),
+    let (path, data) = match (&a.table1, &a.recording) {
+        (Some(p), _) => (p, TrainData::Table1(dataset::table1_from_csv(p)?)),
         (None, Some(p)) => {
-            let mut read = super::read_recording(p, &a.units)?;
-            // Training reads time, rate and temperature only: the chamber's column and any
-            // other are 80 MB each on 10⁷ samples.
-            read.chamber_c = None;
-            read.extra = Vec::new();
-            let r = rec.insert(read);
-            (p, dataset::from_recording_rows(r, &sel)?)
+            let sel = RecordingSelection {
+                from_s: a.from_s,
+                to_s: a.to_s,
+                block: a.block,
+                rate_tau_s: a.rate_tau_s,
+            };
+            (
+                p,
+                TrainData::Recording(super::read_recording(p, &a.units)?, sel),
+            )
         }
         (None, None) => anyhow::bail!("give --table FILE or --recording FILE"),
     };
     let provenance = Provenance::from_file(path, command_line)?;
-    // The exact solve's size is known now: refuse before minutes of tuning, not after.
-    if a.budget.is_none() && data.x.len() > rlg_train::lssvm::solve::MAX_EXACT_SAMPLES {
-        return Err(rlg_train::lssvm::LssvmError::TooLarge {
-            samples: data.x.len(),
-            max: rlg_train::lssvm::solve::MAX_EXACT_SAMPLES,
-        })
-        .with_context(|| format!("training on {}", path.display()));
-    }
-    if let Some(r) = &rec {
-        // A dT/dt model needs the board's 1 Hz stream, with or without tuning.
-        rlg_calibrate::check_stream(r, &path.display().to_string())?;
-    }
-    let (sigma, c) = match (a.sigma, a.c) {
-        (Some(s), Some(c)) => (s, c),
-        _ => {
-            let pb = progress("tuning σ, c");
-            let tuned = match &rec {
-                // Table 1's points are independent: closed-form leave-one-out.
-                None => tune(
-                    &data.features,
-                    &vecs(&data.x),
-                    &data.y_dph,
-                    &Validation::LeaveOneOut,
-                    &Grid::default(),
-                    &pb,
-                )?,
-                Some(r) => {
-                    // The tuning works on the recording: the training set is rebuilt after
-                    // it rather than held through it (240 MB on 10⁷ samples at --block 1).
-                    data.x = FeatureRows::with_capacity(data.x.dim(), 0);
-                    data.y_dph = Vec::new();
-                    let tuned = rlg_calibrate::tune_recording(
-                        r,
-                        a.from_s,
-                        a.to_s,
-                        a.rate_tau_s,
-                        &Grid::default(),
-                        &pb,
-                    )?;
-                    data = dataset::from_recording_rows(r, &sel)?;
-                    tuned
-                }
-            };
-            pb.finish_and_clear();
-            println!(
-                "σ = {:.4}, c = {:.4} by {}: CROSS-VALIDATED RMS {:.4e} °/h",
-                tuned.sigma, tuned.c, tuned.validation, tuned.cv_rms_dph
-            );
-            (tuned.sigma, tuned.c)
-        }
+    let opts = TrainOptions {
+        sigma_c: a.sigma.zip(a.c),
+        budget: a.budget.map(|b| b as usize),
+        loo: a.loo,
+        rate_tau_s: a.rate_tau_s,
     };
-    // The recording was needed for the stream check and the tuning only: on 10⁷ samples it
-    // is 240 MB the training does not use.
-    drop(rec);
-    let m = match a.budget {
-        // The exact solve is capped at 12 000 samples (checked above): its rows as vectors.
-        None => ModelFile::train(
-            &data.features,
-            &vecs(&data.x),
-            &data.y_dph,
-            sigma,
-            c,
-            a.rate_tau_s,
-            data.dt_s,
-            a.loo,
-            provenance,
-        ),
-        Some(budget) => {
-            anyhow::ensure!(
-                !a.loo,
-                "--loo is the exact model's closed-form leave-one-out; drop it with --budget"
-            );
-            let l = train_reduced(
-                &data.features,
-                &data.x,
-                &data.y_dph,
-                sigma,
-                c,
-                budget as usize,
-                Reduction::FIXED_SIZE,
-            )
-            .with_context(|| format!("training on {}", path.display()))?;
-            ModelFile::from_trained(
-                l,
-                &data.x,
-                &data.y_dph,
-                a.rate_tau_s,
-                data.dt_s,
-                None,
-                provenance,
-            )
-        }
+    let pb = progress("tuning σ, c");
+    let trained = train_model(data, &opts, &path.display().to_string(), provenance, &pb)?;
+    if let Some(t) = &trained.tuned {
+        println!(
+            "σ = {:.4}, c = {:.4} by {}: CROSS-VALIDATED RMS {:.4e} °/h",
+            t.sigma, t.c, t.validation, t.cv_rms_dph
+        );
     }
-    .with_context(|| format!("training on {}", path.display()))?;
+    let m = &trained.model;
     m.write(&a.out)?;
     let t = &m.training;
     println!(
         "trained on {} samples, features [{}]",
         t.samples,
-        data.features.join(", ")
+        m.lssvm.features.join(", ")
     );
     println!("TRAINING RMS error:      {:.4e} °/h", t.rms_dph);
     println!("TRAINING max |error|:    {:.4e} °/h", t.max_abs_dph);
@@ -249,7 +143,7 @@ mod tests {
             out: model.clone(),
         };
         run(&args, "rlg train").unwrap();
-        let m = ModelFile::read(&model).unwrap();
+        let m = rlg_train::model::ModelFile::read(&model).unwrap();
         assert_eq!(m.provenance.data_file, "static.csv");
         assert_eq!(m.training.samples, 9);
         assert!(m.training.loo_rms_dph.unwrap() > m.training.rms_dph);

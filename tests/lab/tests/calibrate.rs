@@ -8,7 +8,7 @@ use indicatif::ProgressBar;
 use compensator_core::{Compensator, SensorLimits};
 use rlg_calibrate::report::{self, FileInfo, Inputs};
 use rlg_calibrate::static_cal::{calibrate_static, StaticOptions};
-use rlg_calibrate::{calibrate, HeldOut, Options, BOARD, LSSVM, RAW, STEPWISE};
+use rlg_calibrate::{calibrate, HeldOut, Model, Options};
 use rlg_io::recording::Recording;
 use rlg_repro::dynamic;
 use rlg_simulate::scenario::Scenario;
@@ -19,7 +19,7 @@ fn provenance(what: &str) -> Provenance {
     Provenance::from_bytes(what, what.as_bytes(), "rlg calibrate (test)")
 }
 
-fn held(c: &rlg_calibrate::Calibration, name: &str) -> f64 {
+fn held(c: &rlg_calibrate::Calibration, name: Model) -> f64 {
     c.row(name)
         .and_then(|r| r.held_out.as_ref())
         .map_or(f64::NAN, |h| h.stability_dph)
@@ -51,10 +51,10 @@ fn calibrate_agrees_with_report_on_the_shipped_scenario() {
     );
     assert_eq!((c.tuned.sigma, c.tuned.c), (dy.tuned.sigma, dy.tuned.c));
     for (ours, theirs) in [
-        (RAW, dynamic::RAW),
-        (STEPWISE, dynamic::STEPWISE),
-        (LSSVM, dynamic::LSSVM),
-        (BOARD, dynamic::BOARD),
+        (Model::Raw, dynamic::Row::Raw),
+        (Model::Stepwise, dynamic::Row::Stepwise),
+        (Model::Lssvm, dynamic::Row::Lssvm),
+        (Model::Board, dynamic::Row::Board),
     ] {
         let a = held(&c, ours);
         let b = dy.model(theirs).unwrap().test_b100_dph;
@@ -130,10 +130,10 @@ fn a_gyro_of_its_own_calibrates_without_sigma_or_c_and_its_tables_agree() {
     assert_eq!(c.split.held_out, HeldOut::Cycles { train: 2, test: 1 });
     assert_eq!(c.split.cv_groups, 2, "{}", c.split.validation);
     let (raw, sw, ls, board) = (
-        held(&c, RAW),
-        held(&c, STEPWISE),
-        held(&c, LSSVM),
-        held(&c, BOARD),
+        held(&c, Model::Raw),
+        held(&c, Model::Stepwise),
+        held(&c, Model::Lssvm),
+        held(&c, Model::Board),
     );
     println!(
         "own gyro, HELD-OUT 100 s stability: raw {raw:.3e}, stepwise {sw:.3e}, LS-SVM {ls:.3e}, \

@@ -145,11 +145,11 @@ pub enum TuneError {
     NothingTrained,
 }
 
-/// `n` log-spaced values from `lo` to `hi` inclusive.
-fn log_space(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+/// `n` log-spaced values from `lo` to `hi` inclusive (`lo` alone for `n` = 1).
+pub fn log_space(lo: f64, hi: f64, n: usize) -> Vec<f64> {
     let (a, b) = (lo.ln(), hi.ln());
     (0..n)
-        .map(|i| (a + (b - a) * i as f64 / (n - 1) as f64).exp())
+        .map(|i| (a + (b - a) * i as f64 / (n.max(2) - 1) as f64).exp())
         .collect()
 }
 

@@ -1,0 +1,159 @@
+//! The board table: a fixed-size LS-SVM tuned as the table it is, within the board's f32
+//! limit, and its output through the board's own `Compensator`.
+
+use indicatif::ProgressBar;
+
+use compensator_core::{Compensator, SensorLimits};
+use rlg_io::recording::Recording;
+use rlg_train::export;
+use rlg_train::lssvm::fixed_size::FixedSizeOptions;
+use rlg_train::lssvm::sparse::{train_reduced, FixedSizePath, Reduction};
+use rlg_train::lssvm::tune::{by_sigma, CvPoint, Tuned, PARSIMONY};
+use rlg_train::model::{ModelFile, Provenance};
+
+use crate::cv::cv_rms_many;
+use crate::error::{ensure, CalibrateError};
+use crate::options::Options;
+use crate::result::BoardChoice;
+use crate::sets::TrainingSets;
+
+/// The board table, tuned as the table it is: a fixed-size model of `budget` vectors scored
+/// by CV on the same folds at every point of the coarse σ × c grid and at the LS-SVM's
+/// choice (a small table cannot follow a σ the exact model can, so the exact model's σ, c are
+/// not assumed to suit it). The LS-SVM's choice is kept when its table scores within
+/// [`PARSIMONY`] of the best, so the two rows then differ only by the reduction; otherwise
+/// the best-scoring point. Points whose table departs in f32 beyond the export limit are
+/// passed over, best first.
+pub(crate) fn choose_board(
+    sets: &TrainingSets,
+    folds: &[Vec<usize>],
+    tuned: &Tuned,
+    opts: &Options,
+    provenance: &Provenance,
+    progress: &ProgressBar,
+) -> Result<(BoardChoice, ModelFile), CalibrateError> {
+    let (data, tune_data) = (&sets.data, &sets.tune);
+    let (budget, rate_tau_s) = (opts.budget, opts.rate_tau_s);
+    let n = tune_data.x.len();
+    let exact = (tuned.sigma, tuned.c);
+    let mut points: Vec<(f64, f64)> = tuned.curve.iter().map(|p| (p.sigma, p.c)).collect();
+    points.push(exact);
+    progress.reset();
+    progress.set_message(format!("tuning the {budget}-vector table"));
+    progress.set_length(points.len() as u64);
+    // One task per σ: the active set and normal equations of a fold serve every c.
+    let scored: Vec<CvPoint> = by_sigma(&points, |sigma, cs| {
+        let cv = cv_rms_many(folds, n, &tune_data.y_dph, cs.len(), |tr, te| {
+            let xs: Vec<Vec<f64>> = tr.iter().map(|&i| tune_data.x[i].clone()).collect();
+            let ys: Vec<f64> = tr.iter().map(|&i| tune_data.y_dph[i]).collect();
+            let opts = FixedSizeOptions::with_budget(budget.min(xs.len()));
+            let Ok(path) = FixedSizePath::new(&tune_data.features, &xs, &ys, sigma, &opts) else {
+                return vec![None; cs.len()];
+            };
+            cs.iter()
+                .map(|&c| {
+                    let m = path.model(c).ok()?;
+                    Some(te.iter().map(|&i| m.predict(&tune_data.x[i])).collect())
+                })
+                .collect()
+        });
+        progress.inc(cs.len() as u64);
+        cv
+    })
+    .into_iter()
+    .zip(&points)
+    .map(|(cv, &(sigma, c))| CvPoint {
+        sigma,
+        c,
+        cv_rms_dph: cv.unwrap_or(f64::NAN),
+    })
+    .collect();
+    progress.finish_and_clear();
+    let exact_point = *scored.last().unwrap_or(&CvPoint {
+        sigma: exact.0,
+        c: exact.1,
+        cv_rms_dph: f64::NAN,
+    });
+    let mut order: Vec<CvPoint> = scored
+        .iter()
+        .filter(|p| p.cv_rms_dph.is_finite())
+        .copied()
+        .collect();
+    order.sort_by(|a, b| a.cv_rms_dph.total_cmp(&b.cv_rms_dph));
+    let best = order.first().map_or(f64::NAN, |p| p.cv_rms_dph);
+    if exact_point.cv_rms_dph <= best * (1.0 + PARSIMONY) {
+        order.insert(0, exact_point);
+    }
+    let budget = budget.min(data.x.len());
+    let mut refused = Vec::new();
+    for p in order {
+        let lssvm = train_reduced(
+            &data.features,
+            &data.x,
+            &data.y_dph,
+            p.sigma,
+            p.c,
+            budget,
+            Reduction::FIXED_SIZE,
+        )?;
+        let m = ModelFile::from_trained(
+            lssvm,
+            &data.x,
+            &data.y_dph,
+            rate_tau_s,
+            data.dt_s,
+            None,
+            provenance.clone(),
+        )?;
+        let prec = export::precision(&m)?;
+        let dev = prec.deviation_dph;
+        if dev <= prec.limit_dph {
+            let choice = BoardChoice {
+                sigma: p.sigma,
+                c: p.c,
+                cv_rms_dph: p.cv_rms_dph,
+                exact_choice_cv_rms_dph: exact_point.cv_rms_dph,
+                support_vectors: m.lssvm.support.len(),
+                f32_deviation_dph: dev,
+                f32_limit_dph: prec.limit_dph,
+                reference_folded: export::folds_reference(m.reference_dph),
+                refused,
+            };
+            return Ok((choice, m));
+        }
+        refused.push((p.sigma, p.c, dev));
+    }
+    Err(CalibrateError::NoBoardTable(format!(
+        "no (σ, c) of the grid gives a board table within the f32 limit of {:.0e} °/h \
+         (tried {}; smallest departure {:.2e} °/h); widen the grid to smaller c with --c-min",
+        export::EXPORT_LIMIT_DPH,
+        refused.len(),
+        refused.iter().map(|r| r.2).fold(f64::INFINITY, f64::min)
+    )))
+}
+
+/// The board table run sample by sample through the f32 `Compensator` over the whole
+/// `stream` (so the estimator's state is the board's); outputs at `keep`.
+pub fn board_output(
+    stream: &Recording,
+    model: &ModelFile,
+    keep: &[usize],
+) -> Result<Vec<f64>, CalibrateError> {
+    let t = export::to_f32::<2>(model)?;
+    let mut comp = Compensator::new(t.as_model(), SensorLimits::DEFAULT);
+    ensure!(
+        comp.table_ok(),
+        Internal,
+        "the exported table fails the board's validation"
+    );
+    let mut out = Vec::with_capacity(keep.len());
+    let mut next = keep.iter().peekable();
+    for k in 0..stream.len() {
+        let o = comp.update(stream.temp_c[k] as f32, stream.rate_dph[k] as f32);
+        if next.peek() == Some(&&k) {
+            out.push(f64::from(o.rate_dph));
+            next.next();
+        }
+    }
+    Ok(out)
+}

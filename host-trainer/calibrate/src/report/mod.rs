@@ -1,0 +1,125 @@
+//! The calibration folder: `report.md`, `summary.json` (schema in `SUMMARY.md` of this
+//! crate, versioned by [`SCHEMA_VERSION`]), PNG figures, `model.json`, the board table in Rust
+//! (`table.rs`) and C (`table.h`). Every file is written atomically; the folder is created
+//! first, so a path that cannot hold it fails before any work.
+
+mod figures;
+mod markdown;
+mod summary;
+
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use rlg_train::export::{self, Format};
+use rlg_train::model::ModelFile;
+
+use crate::static_cal::StaticCalibration;
+use crate::{CalibrateError, Calibration};
+
+pub use markdown::{comparison, console_tail, markdown, static_console, static_markdown};
+pub use summary::{
+    static_summary, summary, AllanReadOffs, BoardSummary, HeldOutSummary, Interval, ModelSummary,
+    SplitSummary, Summary, TuningSummary, SCHEMA, SCHEMA_VERSION,
+};
+
+/// A data file named in the summary.
+#[derive(Clone, Debug, Serialize)]
+pub struct FileInfo {
+    /// File name (no folder).
+    pub file: String,
+    /// SHA-256 of its bytes.
+    pub sha256: String,
+    /// Rows (samples) read.
+    pub samples: usize,
+}
+
+/// What a report is written from, besides the result.
+#[derive(Clone, Debug)]
+pub struct Inputs {
+    /// The command line.
+    pub command: String,
+    /// The calibration recording.
+    pub recording: FileInfo,
+    /// The test recording.
+    pub test_recording: Option<FileInfo>,
+}
+
+fn write_text(path: &Path, text: &str) -> Result<(), CalibrateError> {
+    rlg_io::atomic::write(path, text.as_bytes()).map_err(|source| CalibrateError::Write {
+        path: path.display().to_string(),
+        source,
+    })
+}
+
+/// Writes `model{stem}.json`, `table{stem}.rs` and `table{stem}.h`.
+fn write_tables(
+    dir: &Path,
+    m: &ModelFile,
+    command: &str,
+    stem: &str,
+) -> Result<Vec<String>, CalibrateError> {
+    let names = [
+        format!("model{stem}.json"),
+        format!("table{stem}.rs"),
+        format!("table{stem}.h"),
+    ];
+    m.write(&dir.join(&names[0]))?;
+    export::write_board_table(m, command, &dir.join(&names[1]), Format::Rust)?;
+    export::write_board_table(m, command, &dir.join(&names[2]), Format::C)?;
+    Ok(names.to_vec())
+}
+
+/// Writes `summary.json` (the files listed include it).
+fn write_summary(dir: &Path, sum: &Summary) -> Result<(), CalibrateError> {
+    write_text(
+        &dir.join("summary.json"),
+        &(serde_json::to_string_pretty(sum)? + "\n"),
+    )
+}
+
+/// Creates `dir` (a clear error when it cannot be a folder); done before the work.
+pub fn prepare_dir(dir: &Path) -> Result<(), CalibrateError> {
+    if dir.is_file() {
+        return Err(CalibrateError::OutputDir {
+            message: format!("--out {}: is a file; give a folder", dir.display()),
+            source: None,
+        });
+    }
+    std::fs::create_dir_all(dir).map_err(|source| CalibrateError::OutputDir {
+        message: format!("--out {}: cannot create the folder", dir.display()),
+        source: Some(source),
+    })
+}
+
+/// Writes the folder of a dynamic calibration; returns the files written.
+pub fn write(c: &Calibration, inputs: &Inputs, dir: &Path) -> Result<Vec<PathBuf>, CalibrateError> {
+    prepare_dir(dir)?;
+    let mut files = write_tables(dir, &c.board_model, &inputs.command, "")?;
+    if let Some(d) = &c.diagnosed_board {
+        files.extend(write_tables(dir, &d.model, &inputs.command, "_diagnosed")?);
+    }
+    files.extend(figures::figures(c, dir)?);
+    write_text(&dir.join("report.md"), &markdown(c, inputs))?;
+    files.push("report.md".into());
+    files.push("summary.json".into());
+    write_summary(dir, &summary(c, inputs, &files))?;
+    Ok(files.iter().map(|f| dir.join(f)).collect())
+}
+
+/// Writes the folder of a static calibration; returns the files written.
+pub fn write_static(
+    c: &StaticCalibration,
+    inputs: &Inputs,
+    dir: &Path,
+) -> Result<Vec<PathBuf>, CalibrateError> {
+    prepare_dir(dir)?;
+    let mut files = write_tables(dir, &c.model, &inputs.command, "")?;
+    files.push(figures::static_figure(c, dir)?);
+    let md = static_markdown(c, inputs, &static_summary(c, inputs, &files));
+    write_text(&dir.join("report.md"), &md)?;
+    files.push("report.md".into());
+    files.push("summary.json".into());
+    write_summary(dir, &static_summary(c, inputs, &files))?;
+    Ok(files.iter().map(|f| dir.join(f)).collect())
+}
