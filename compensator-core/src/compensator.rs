@@ -32,7 +32,7 @@
 
 use crate::features::FeatureBank;
 use crate::rate::{RateEstimate, RateEstimator};
-use crate::table::{ModelRef, ModelTable, TableError};
+use crate::table::{ModelRef, ModelSpec, ModelTable, TableError};
 
 /// Bit set describing one output sample. `Status::OK` (no bit) means compensated normally.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -146,9 +146,15 @@ pub struct Compensated {
 }
 
 /// Runs the feature estimators and the model on each 1 Hz sample.
+///
+/// It holds a copy of the table's [`ModelSpec`] and borrows only the support vectors and
+/// coefficients, so it is self-contained apart from those two arrays: a C caller's state can
+/// be moved or copied ([`Compensator::from_parts`] builds one from arrays alone).
 #[derive(Clone, Debug)]
 pub struct Compensator<'a, const D: usize> {
-    model: ModelRef<'a, D>,
+    spec: ModelSpec<D>,
+    support: &'a [[f32; D]],
+    alpha_dph: &'a [f32],
     limits: SensorLimits,
     table_ok: bool,
     table_error: Option<TableError>,
@@ -185,9 +191,45 @@ impl<'a, const D: usize> Compensator<'a, D> {
         Self::with_check(table.as_model(), limits, table.verify().err())
     }
 
+    /// A compensator for a table given as its parts (a table laid out by C code, whose
+    /// [`ModelSpec`] the caller assembled): the stored `crc32` and then the content are
+    /// checked once here, as by [`Compensator::from_table`].
+    pub fn from_parts(
+        spec: ModelSpec<D>,
+        support: &'a [[f32; D]],
+        alpha_dph: &'a [f32],
+        crc32: u32,
+        limits: SensorLimits,
+    ) -> Self {
+        let model = ModelRef {
+            spec: &spec,
+            support,
+            alpha_dph,
+        };
+        let err = model.verify(crc32).err();
+        Self::build(spec, support, alpha_dph, limits, err)
+    }
+
     fn with_check(model: ModelRef<'a, D>, limits: SensorLimits, err: Option<TableError>) -> Self {
+        Self::build(*model.spec, model.support, model.alpha_dph, limits, err)
+    }
+
+    fn build(
+        spec: ModelSpec<D>,
+        support: &'a [[f32; D]],
+        alpha_dph: &'a [f32],
+        limits: SensorLimits,
+        err: Option<TableError>,
+    ) -> Self {
+        let model = ModelRef {
+            spec: &spec,
+            support,
+            alpha_dph,
+        };
         Compensator {
-            model,
+            spec,
+            support,
+            alpha_dph,
             limits,
             table_ok: err.is_none(),
             table_error: err,
@@ -203,6 +245,16 @@ impl<'a, const D: usize> Compensator<'a, D> {
         }
     }
 
+    /// The model: the held spec and the borrowed arrays.
+    #[inline(always)]
+    fn model(&self) -> ModelRef<'_, D> {
+        ModelRef {
+            spec: &self.spec,
+            support: self.support,
+            alpha_dph: self.alpha_dph,
+        }
+    }
+
     /// Whether the table passed validation.
     pub const fn table_ok(&self) -> bool {
         self.table_ok
@@ -211,6 +263,11 @@ impl<'a, const D: usize> Compensator<'a, D> {
     /// Why the table was rejected, if it was.
     pub const fn table_error(&self) -> Option<TableError> {
         self.table_error
+    }
+
+    /// The table's spec (held by the compensator).
+    pub const fn spec(&self) -> &ModelSpec<D> {
+        &self.spec
     }
 
     /// The feature vector the model sees for a temperature estimate, before clamping, with
@@ -255,7 +312,33 @@ impl<'a, const D: usize> Compensator<'a, D> {
     }
 
     /// Processes one 1 Hz sample.
+    #[inline]
     pub fn update(&mut self, temp_c: f32, gyro_dph: f32) -> Compensated {
+        let linear = self.linear;
+        self.update_with(temp_c, gyro_dph, |model, x| {
+            let f = if linear {
+                model.predict_dph(x)
+            } else {
+                // The same value: predict_dph adds a linear sum of exactly 0.
+                model.predict_standardised_dph(&model.standardise(x))
+            };
+            f - model.spec.reference_dph
+        })
+    }
+
+    /// [`Compensator::update`] with the model evaluated by `correction_dph`, which receives the
+    /// model and the feature vector clamped to the trained range and returns the correction
+    /// f(x) − reference, °/h (a non-finite value leaves the raw rate uncompensated). Every rule
+    /// of the module doc applies unchanged; `correction_dph` is called only for an accepted
+    /// temperature of a valid table. The fixed-point compensator
+    /// ([`crate::fixed::FixedCompensator`]) evaluates Eq. (10) in integers through it.
+    #[inline(always)]
+    pub fn update_with(
+        &mut self,
+        temp_c: f32,
+        gyro_dph: f32,
+        correction_dph: impl FnOnce(&ModelRef<'_, D>, &[f32; D]) -> f32,
+    ) -> Compensated {
         if !self.table_ok {
             let (rate_dph, status) = if gyro_dph.is_finite() {
                 (gyro_dph, Status::TABLE_FAULT)
@@ -309,7 +392,7 @@ impl<'a, const D: usize> Compensator<'a, D> {
                 status |= Status::WARMING_UP;
             }
             let mut x = self.bank.update(temp_c, &est);
-            let s = self.model.spec;
+            let s = &self.spec;
             for ((v, lo), hi) in x.iter_mut().zip(s.input_lo).zip(s.input_hi) {
                 // Written so that a NaN could never pass (it cannot reach here anyway).
                 if !(*v >= lo && *v <= hi) {
@@ -317,14 +400,7 @@ impl<'a, const D: usize> Compensator<'a, D> {
                     *v = if *v > hi { hi } else { lo };
                 }
             }
-            let f = if self.linear {
-                self.model.predict_dph(&x)
-            } else {
-                // The same value: predict_dph adds a linear sum of exactly 0.
-                self.model
-                    .predict_standardised_dph(&self.model.standardise(&x))
-            };
-            Some(f - s.reference_dph)
+            Some(correction_dph(&self.model(), &x))
         } else {
             status |= Status::TEMP_FAULT;
             self.skipped = self.skipped.saturating_add(1);
