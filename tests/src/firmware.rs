@@ -273,6 +273,61 @@ pub fn run_qemu_on(
     cpu: &str,
     timeout: Duration,
 ) -> Result<QemuRun, FirmwareError> {
+    let (exit_code, stdout, stderr, elapsed) = spawn_qemu(elf, machine, cpu, timeout)?;
+    let elf_bytes = std::fs::read(elf).map_err(io_err(elf))?;
+    let log = decode_defmt(&elf_bytes, &stdout).map_err(|e| match e {
+        DefmtFailure::Table(reason) => FirmwareError::DefmtTable {
+            path: elf.display().to_string(),
+            reason,
+        },
+        DefmtFailure::Malformed(n) => FirmwareError::DefmtMalformed(n),
+    })?;
+    finish_run(exit_code, log, &stderr, elapsed)
+}
+
+/// Like [`run_qemu_on`] for an image that logs plain text lines on stdout (the C images of
+/// the C API's tests) instead of defmt frames.
+pub fn run_qemu_text(
+    elf: &Path,
+    machine: &str,
+    cpu: &str,
+    timeout: Duration,
+) -> Result<QemuRun, FirmwareError> {
+    let (exit_code, stdout, stderr, elapsed) = spawn_qemu(elf, machine, cpu, timeout)?;
+    let log = String::from_utf8_lossy(&stdout)
+        .lines()
+        .map(str::to_owned)
+        .collect();
+    finish_run(exit_code, log, &stderr, elapsed)
+}
+
+fn finish_run(
+    exit_code: Option<i32>,
+    log: Vec<String>,
+    stderr: &[u8],
+    elapsed: Duration,
+) -> Result<QemuRun, FirmwareError> {
+    let mut run = QemuRun {
+        exit_code,
+        log,
+        records: Vec::new(),
+        begin_count: None,
+        end_count: None,
+        other_stderr: Vec::new(),
+        elapsed,
+    };
+    parse_lines(&String::from_utf8_lossy(stderr), &mut run)?;
+    Ok(run)
+}
+
+/// Runs `elf` in QEMU with [`QEMU_ARGS`] on `machine` and `cpu`, killing it after `timeout`:
+/// exit code, stdout, stderr and wall-clock time.
+fn spawn_qemu(
+    elf: &Path,
+    machine: &str,
+    cpu: &str,
+    timeout: Duration,
+) -> Result<(Option<i32>, Vec<u8>, Vec<u8>, Duration), FirmwareError> {
     let mut args = QEMU_ARGS;
     args[1] = machine;
     args[3] = cpu;
@@ -311,27 +366,7 @@ pub fn run_qemu_on(
     };
     let stdout = out_t.join().unwrap_or_default();
     let stderr = err_t.join().unwrap_or_default();
-    let elapsed = start.elapsed();
-
-    let elf_bytes = std::fs::read(elf).map_err(io_err(elf))?;
-    let log = decode_defmt(&elf_bytes, &stdout).map_err(|e| match e {
-        DefmtFailure::Table(reason) => FirmwareError::DefmtTable {
-            path: elf.display().to_string(),
-            reason,
-        },
-        DefmtFailure::Malformed(n) => FirmwareError::DefmtMalformed(n),
-    })?;
-    let mut run = QemuRun {
-        exit_code: status.code(),
-        log,
-        records: Vec::new(),
-        begin_count: None,
-        end_count: None,
-        other_stderr: Vec::new(),
-        elapsed,
-    };
-    parse_lines(&String::from_utf8_lossy(&stderr), &mut run)?;
-    Ok(run)
+    Ok((status.code(), stdout, stderr, start.elapsed()))
 }
 
 enum DefmtFailure {
