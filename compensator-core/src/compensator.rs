@@ -30,6 +30,8 @@
 //! Every output is finite: the raw rate is only passed through when it is finite, and the
 //! model's output is finite for clamped finite features and a validated table.
 
+use core::borrow::Borrow;
+
 use crate::features::FeatureBank;
 use crate::rate::{RateEstimate, RateEstimator};
 use crate::table::{ModelRef, ModelSpec, ModelTable, TableError};
@@ -147,12 +149,13 @@ pub struct Compensated {
 
 /// Runs the feature estimators and the model on each 1 Hz sample.
 ///
-/// It holds a copy of the table's [`ModelSpec`] and borrows only the support vectors and
-/// coefficients, so it is self-contained apart from those two arrays: a C caller's state can
-/// be moved or copied ([`Compensator::from_parts`] builds one from arrays alone).
+/// `S` holds the table's [`ModelSpec`]: by default a reference (a Rust table in flash, which
+/// the optimiser sees through), or the spec itself ([`Compensator::from_parts`]: a table laid
+/// out by C code, so that the state borrows only the support vectors and coefficients and a C
+/// caller may move or copy it).
 #[derive(Clone, Debug)]
-pub struct Compensator<'a, const D: usize> {
-    spec: ModelSpec<D>,
+pub struct Compensator<'a, const D: usize, S: Borrow<ModelSpec<D>> = &'a ModelSpec<D>> {
+    spec: S,
     support: &'a [[f32; D]],
     alpha_dph: &'a [f32],
     limits: SensorLimits,
@@ -191,9 +194,15 @@ impl<'a, const D: usize> Compensator<'a, D> {
         Self::with_check(table.as_model(), limits, table.verify().err())
     }
 
+    fn with_check(model: ModelRef<'a, D>, limits: SensorLimits, err: Option<TableError>) -> Self {
+        Self::build(model.spec, model.support, model.alpha_dph, limits, err)
+    }
+}
+
+impl<'a, const D: usize> Compensator<'a, D, ModelSpec<D>> {
     /// A compensator for a table given as its parts (a table laid out by C code, whose
-    /// [`ModelSpec`] the caller assembled): the stored `crc32` and then the content are
-    /// checked once here, as by [`Compensator::from_table`].
+    /// [`ModelSpec`] the caller assembled and the compensator keeps): the stored `crc32` and
+    /// then the content are checked once here, as by [`Compensator::from_table`].
     pub fn from_parts(
         spec: ModelSpec<D>,
         support: &'a [[f32; D]],
@@ -209,23 +218,22 @@ impl<'a, const D: usize> Compensator<'a, D> {
         let err = model.verify(crc32).err();
         Self::build(spec, support, alpha_dph, limits, err)
     }
+}
 
-    fn with_check(model: ModelRef<'a, D>, limits: SensorLimits, err: Option<TableError>) -> Self {
-        Self::build(*model.spec, model.support, model.alpha_dph, limits, err)
-    }
-
+impl<'a, const D: usize, S: Borrow<ModelSpec<D>>> Compensator<'a, D, S> {
     fn build(
-        spec: ModelSpec<D>,
+        spec: S,
         support: &'a [[f32; D]],
         alpha_dph: &'a [f32],
         limits: SensorLimits,
         err: Option<TableError>,
     ) -> Self {
-        let model = ModelRef {
-            spec: &spec,
-            support,
-            alpha_dph,
-        };
+        let s: &ModelSpec<D> = spec.borrow();
+        let (rate, bank) = (
+            RateEstimator::new(s.rate_filter),
+            FeatureBank::new(s.features, s.rate_filter.dt_s),
+        );
+        let linear = s.linear_dph.iter().any(|b| *b != 0.0);
         Compensator {
             spec,
             support,
@@ -233,23 +241,23 @@ impl<'a, const D: usize> Compensator<'a, D> {
             limits,
             table_ok: err.is_none(),
             table_error: err,
-            rate: RateEstimator::new(model.spec.rate_filter),
-            bank: FeatureBank::new(model.spec.features, model.spec.rate_filter.dt_s),
+            rate,
+            bank,
             skipped: 0,
             last_good_dph: 0.0,
             last_temp_bits: 0,
             repeats: 0,
             have_last: false,
             stuck_armed: false,
-            linear: model.spec.linear_dph.iter().any(|b| *b != 0.0),
+            linear,
         }
     }
 
-    /// The model: the held spec and the borrowed arrays.
+    /// The model: the spec and the borrowed arrays.
     #[inline(always)]
     fn model(&self) -> ModelRef<'_, D> {
         ModelRef {
-            spec: &self.spec,
+            spec: self.spec.borrow(),
             support: self.support,
             alpha_dph: self.alpha_dph,
         }
@@ -265,9 +273,9 @@ impl<'a, const D: usize> Compensator<'a, D> {
         self.table_error
     }
 
-    /// The table's spec (held by the compensator).
-    pub const fn spec(&self) -> &ModelSpec<D> {
-        &self.spec
+    /// The table's spec.
+    pub fn spec(&self) -> &ModelSpec<D> {
+        self.spec.borrow()
     }
 
     /// The feature vector the model sees for a temperature estimate, before clamping, with
@@ -276,6 +284,9 @@ impl<'a, const D: usize> Compensator<'a, D> {
         self.bank.values(temp_c, est)
     }
 
+    // Inlined into the 1 Hz update: the C library's update, one function per input count, kept
+    // it out of line at opt-level "s" and paid a call and spills per sample.
+    #[inline(always)]
     fn temp_is_plausible(&self, temp_c: f32) -> bool {
         let l = &self.limits;
         if !(temp_c >= l.temp_min_c && temp_c <= l.temp_max_c) {
@@ -289,11 +300,12 @@ impl<'a, const D: usize> Compensator<'a, D> {
         let est = self.rate.estimate();
         let predicted = est.level_c + est.rate_c_per_s * self.rate.filter().dt_s;
         let periods = self.skipped.saturating_add(1) as f32;
-        libm::fabsf(temp_c - predicted) <= l.max_temp_step_c * periods
+        (temp_c - predicted).abs() <= l.max_temp_step_c * periods
     }
 
     /// Whether the last accepted temperature reading has repeated `stuck_samples` times
     /// although the body was moving when it appeared.
+    #[inline(always)]
     fn is_stuck(&self) -> bool {
         self.stuck_armed
             && self.limits.stuck_samples > 0
@@ -356,7 +368,7 @@ impl<'a, const D: usize> Compensator<'a, D> {
         }
 
         let mut status = Status::OK;
-        let gyro_ok = gyro_dph.is_finite() && libm::fabsf(gyro_dph) <= self.limits.rate_limit_dph;
+        let gyro_ok = gyro_dph.is_finite() && gyro_dph.abs() <= self.limits.rate_limit_dph;
         if !gyro_ok {
             status |= Status::GYRO_FAULT;
         }
@@ -365,7 +377,7 @@ impl<'a, const D: usize> Compensator<'a, D> {
             let held = f32::from_bits(self.last_temp_bits);
             let l = &self.limits;
             let in_band = temp_c >= l.temp_min_c && temp_c <= l.temp_max_c; // false for NaN
-            if in_band && libm::fabsf(temp_c - held) > l.max_temp_step_c {
+            if in_band && (temp_c - held).abs() > l.max_temp_step_c {
                 // Rule 4: the frozen span ends with a jump; restart at the new reading.
                 self.restart_estimator();
             }
@@ -380,8 +392,8 @@ impl<'a, const D: usize> Compensator<'a, D> {
                 self.repeats = 0;
                 let l = &self.limits;
                 let window_s = l.stuck_samples as f32 * self.rate.filter().dt_s;
-                self.stuck_armed = !est.warming_up
-                    && libm::fabsf(est.rate_c_per_s) * window_s >= l.stuck_min_change_c;
+                self.stuck_armed =
+                    !est.warming_up && est.rate_c_per_s.abs() * window_s >= l.stuck_min_change_c;
             }
             self.last_temp_bits = bits;
             self.have_last = true;
@@ -392,7 +404,7 @@ impl<'a, const D: usize> Compensator<'a, D> {
                 status |= Status::WARMING_UP;
             }
             let mut x = self.bank.update(temp_c, &est);
-            let s = &self.spec;
+            let s: &ModelSpec<D> = self.spec.borrow();
             for ((v, lo), hi) in x.iter_mut().zip(s.input_lo).zip(s.input_hi) {
                 // Written so that a NaN could never pass (it cannot reach here anyway).
                 if !(*v >= lo && *v <= hi) {

@@ -52,8 +52,8 @@ pub fn tool_or_skip(test: &str, program: &str) -> bool {
 static BUILD_LOCK: Mutex<()> = Mutex::new(());
 
 /// Builds `librlg_compensator.a` with cargo and copies it to `dest`: for the host (dev
-/// profile) when `target` is `None`, else for `target` with the board's `firmware` profile
-/// and `features`.
+/// profile) when `target` is `None`, else for `target` with the board's `firmware` profile;
+/// with `features` (an `inputs-*` feature among them replaces the default, all input counts).
 pub fn build_library(
     target: Option<&str>,
     features: &[&str],
@@ -68,6 +68,9 @@ pub fn build_library(
         .stdin(Stdio::null());
     if let Some(t) = target {
         cmd.args(["--profile", "firmware", "--target", t]);
+    }
+    if features.iter().any(|f| f.starts_with("inputs-")) {
+        cmd.arg("--no-default-features");
     }
     if !features.is_empty() {
         cmd.args(["--features", &features.join(",")]);

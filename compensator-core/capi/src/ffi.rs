@@ -159,14 +159,20 @@ unsafe fn table_ref<'a, T>(t: *const T) -> Result<&'a T, rlg_error> {
     s.first().ok_or(RLG_ERR_NULL)
 }
 
-/// Dispatches on the table's input count: `$f::<D>()` for D = `$d` in 1…5.
+/// Dispatches on the table's input count: `$f::<D>()` for D = `$d` in 1…5, for the counts
+/// the library is built for (features `inputs-1` … `inputs-5`); another count is a shape error.
 macro_rules! by_d {
     ($d:expr, $f:ident ( $($a:expr),* )) => {
         match $d {
+            #[cfg(feature = "inputs-1")]
             1 => $f::<1>($($a),*).map(AnyD::D1),
+            #[cfg(feature = "inputs-2")]
             2 => $f::<2>($($a),*).map(AnyD::D2),
+            #[cfg(feature = "inputs-3")]
             3 => $f::<3>($($a),*).map(AnyD::D3),
+            #[cfg(feature = "inputs-4")]
             4 => $f::<4>($($a),*).map(AnyD::D4),
+            #[cfg(feature = "inputs-5")]
             5 => $f::<5>($($a),*).map(AnyD::D5),
             _ => Err(RLG_ERR_TABLE_SHAPE),
         }
@@ -179,7 +185,7 @@ macro_rules! by_d {
 /// `t` as for [`parts`].
 unsafe fn f32_any<const D: usize>(
     t: &rlg_table,
-) -> Result<(compensator_core::Compensator<'static, D>, rlg_error), rlg_error> {
+) -> Result<(crate::state::F32Comp<D>, rlg_error), rlg_error> {
     // SAFETY: the caller's contract.
     let p = unsafe { parts::<D>(t) }?;
     Ok(f32_compensator(p))
@@ -191,7 +197,7 @@ unsafe fn f32_any<const D: usize>(
 /// `t` as for [`parts`] and [`fixed_parts`].
 unsafe fn fixed_any<const D: usize>(
     t: &rlg_fixed_table,
-) -> Result<compensator_core::fixed::FixedCompensator<'static, D>, rlg_error> {
+) -> Result<crate::state::FixedComp<D>, rlg_error> {
     // SAFETY: the caller's contract.
     let table = unsafe { table_ref(t.table) }?;
     // SAFETY: the caller's contract.
@@ -206,11 +212,17 @@ fn split<T1, T2, T3, T4, T5>(
     v: AnyD<(T1, rlg_error), (T2, rlg_error), (T3, rlg_error), (T4, rlg_error), (T5, rlg_error)>,
 ) -> (AnyD<T1, T2, T3, T4, T5>, rlg_error) {
     match v {
+        #[cfg(feature = "inputs-1")]
         AnyD::D1((c, e)) => (AnyD::D1(c), e),
+        #[cfg(feature = "inputs-2")]
         AnyD::D2((c, e)) => (AnyD::D2(c), e),
+        #[cfg(feature = "inputs-3")]
         AnyD::D3((c, e)) => (AnyD::D3(c), e),
+        #[cfg(feature = "inputs-4")]
         AnyD::D4((c, e)) => (AnyD::D4(c), e),
+        #[cfg(feature = "inputs-5")]
         AnyD::D5((c, e)) => (AnyD::D5(c), e),
+        AnyD::_None(never, _) => match never {},
     }
 }
 

@@ -83,51 +83,63 @@ fn output(c: Compensated) -> rlg_output {
     }
 }
 
-/// One compensator per input count.
+/// One compensator per input count the library is built for (features `inputs-1` …
+/// `inputs-5`): a count left out costs no code.
 #[derive(Clone, Debug)]
 pub enum AnyD<T1, T2, T3, T4, T5> {
     /// One input.
+    #[cfg(feature = "inputs-1")]
     D1(T1),
     /// Two inputs (the paper's [T, dT/dt]).
+    #[cfg(feature = "inputs-2")]
     D2(T2),
     /// Three inputs.
+    #[cfg(feature = "inputs-3")]
     D3(T3),
     /// Four inputs.
+    #[cfg(feature = "inputs-4")]
     D4(T4),
     /// Five inputs.
+    #[cfg(feature = "inputs-5")]
     D5(T5),
+    /// No input count is built in (never constructed; keeps the type parameters used).
+    #[doc(hidden)]
+    _None(
+        core::convert::Infallible,
+        core::marker::PhantomData<(T1, T2, T3, T4, T5)>,
+    ),
 }
 
-/// Applies `$f` to whichever compensator `$v` holds.
+/// Applies `$e` to whichever compensator `$v` holds (bound to `$c`).
 macro_rules! each_d {
     ($v:expr, $c:ident => $e:expr) => {
         match $v {
+            #[cfg(feature = "inputs-1")]
             AnyD::D1($c) => $e,
+            #[cfg(feature = "inputs-2")]
             AnyD::D2($c) => $e,
+            #[cfg(feature = "inputs-3")]
             AnyD::D3($c) => $e,
+            #[cfg(feature = "inputs-4")]
             AnyD::D4($c) => $e,
+            #[cfg(feature = "inputs-5")]
             AnyD::D5($c) => $e,
+            AnyD::_None(never, _) => match *never {},
         }
     };
 }
 
 /// The f32 compensator of any input count.
-pub type F32Any = AnyD<
-    Compensator<'static, 1>,
-    Compensator<'static, 2>,
-    Compensator<'static, 3>,
-    Compensator<'static, 4>,
-    Compensator<'static, 5>,
->;
+pub type F32Any = AnyD<F32Comp<1>, F32Comp<2>, F32Comp<3>, F32Comp<4>, F32Comp<5>>;
+
+/// The f32 compensator of D inputs over a C table (holding its spec).
+pub type F32Comp<const D: usize> = Compensator<'static, D, ModelSpec<D>>;
+
+/// The fixed-point compensator of D inputs over a C table.
+pub type FixedComp<const D: usize> = FixedCompensator<'static, D, ModelSpec<D>>;
 
 /// The fixed-point compensator of any input count.
-pub type FixedAny = AnyD<
-    FixedCompensator<'static, 1>,
-    FixedCompensator<'static, 2>,
-    FixedCompensator<'static, 3>,
-    FixedCompensator<'static, 4>,
-    FixedCompensator<'static, 5>,
->;
+pub type FixedAny = AnyD<FixedComp<1>, FixedComp<2>, FixedComp<3>, FixedComp<4>, FixedComp<5>>;
 
 /// What an `rlg_compensator` holds once initialised. `repr(C)`: `magic` comes first, where the
 /// boundary reads it before trusting the rest.
@@ -143,7 +155,7 @@ pub struct F32State {
 }
 
 /// A compensator of D inputs from checked parts, and the error code of its table check.
-pub fn f32_compensator<const D: usize>(p: Parts<D>) -> (Compensator<'static, D>, rlg_error) {
+pub fn f32_compensator<const D: usize>(p: Parts<D>) -> (F32Comp<D>, rlg_error) {
     let c = Compensator::from_parts(p.spec, p.support, p.alpha_dph, p.crc32, LIMITS);
     let code = c.table_error().map_or(rlg_error::RLG_OK, table_error);
     (c, code)
@@ -187,7 +199,7 @@ pub struct FixedState {
 pub fn fixed_compensator<const D: usize>(
     p: Parts<D>,
     q: FixedParts<D>,
-) -> Result<FixedCompensator<'static, D>, rlg_error> {
+) -> Result<FixedComp<D>, rlg_error> {
     let (comp, code) = f32_compensator(p);
     if code != rlg_error::RLG_OK {
         return Err(code);

@@ -49,8 +49,8 @@ pub enum rlg_error {
     RLG_ERR_ALIGNMENT = 2,
     /// The state was never set up by its `init` function (an update before init).
     RLG_ERR_NOT_INITIALIZED = 3,
-    /// `n_features` is outside 1…`RLG_MAX_FEATURES`, `n_support` is 0 or too large for
-    /// memory, or the arrays disagree in length.
+    /// `n_features` is outside 1…`RLG_MAX_FEATURES` (or a count the library was built
+    /// without), `n_support` is 0 or too large for memory, or the arrays disagree in length.
     RLG_ERR_TABLE_SHAPE = 4,
     /// A feature code is unknown, or its parameter is invalid for it.
     RLG_ERR_TABLE_FEATURE = 5,

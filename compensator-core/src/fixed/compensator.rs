@@ -8,9 +8,11 @@
 //! nearest to it (exact below 1 °/h; an `i32` → f32 conversion, IEEE round to nearest). The
 //! output rate is the raw rate minus that correction in f32, as on the f32 path.
 
+use core::borrow::Borrow;
+
 use super::{Dph, FixedError, FixedModel, FixedModelRef, Q, Z};
 use crate::compensator::{Compensated, Compensator, SensorLimits};
-use crate::table::ModelTable;
+use crate::table::{ModelSpec, ModelTable};
 
 /// 2^−24: one Q24 unit, °/h.
 const Q24_UNIT: f32 = 1.0 / 16_777_216.0;
@@ -24,18 +26,22 @@ fn q24_saturating(v: f32) -> Z {
     }
 }
 
-/// [`Compensator`] with Eq. (10) evaluated in fixed point.
+/// [`Compensator`] with Eq. (10) evaluated in fixed point (`S`: how the compensator holds the
+/// table's spec, as for [`Compensator`]).
 #[derive(Clone, Debug)]
-pub struct FixedCompensator<'a, const D: usize> {
-    comp: Compensator<'a, D>,
+pub struct FixedCompensator<'a, const D: usize, S: Borrow<ModelSpec<D>> = &'a ModelSpec<D>> {
+    comp: Compensator<'a, D, S>,
     model: FixedModelRef<'a, D>,
     reference: Dph,
 }
 
-impl<'a, const D: usize> FixedCompensator<'a, D> {
+impl<'a, const D: usize, S: Borrow<ModelSpec<D>>> FixedCompensator<'a, D, S> {
     /// The compensator `comp` (its table already checked) with `model`, the fixed-point form
     /// of the same table; fails when the reference output has no Q24 form (beyond ±128 °/h).
-    pub fn new(comp: Compensator<'a, D>, model: FixedModelRef<'a, D>) -> Result<Self, FixedError> {
+    pub fn new(
+        comp: Compensator<'a, D, S>,
+        model: FixedModelRef<'a, D>,
+    ) -> Result<Self, FixedError> {
         let reference = Q::from_f32_bits(comp.spec().reference_dph.to_bits())
             .ok_or(FixedError::Range("reference_dph"))?;
         Ok(FixedCompensator {
@@ -45,18 +51,8 @@ impl<'a, const D: usize> FixedCompensator<'a, D> {
         })
     }
 
-    /// A compensator for a flashed table and its conversion (`FixedModel::from_table(table)`),
-    /// the CRC checked as by [`Compensator::from_table`].
-    pub fn from_table<const N: usize>(
-        table: &'a ModelTable<N, D>,
-        fixed: &'a FixedModel<N, D>,
-        limits: SensorLimits,
-    ) -> Result<Self, FixedError> {
-        Self::new(Compensator::from_table(table, limits), fixed.as_model())
-    }
-
     /// The f32 compensator underneath (table status, spec).
-    pub const fn compensator(&self) -> &Compensator<'a, D> {
+    pub const fn compensator(&self) -> &Compensator<'a, D, S> {
         &self.comp
     }
 
@@ -68,6 +64,18 @@ impl<'a, const D: usize> FixedCompensator<'a, D> {
             let correction = model.predict(&z).saturating_sub(reference);
             correction.0 as f32 * Q24_UNIT
         })
+    }
+}
+
+impl<'a, const D: usize> FixedCompensator<'a, D> {
+    /// A compensator for a flashed table and its conversion (`FixedModel::from_table(table)`),
+    /// the CRC checked as by [`Compensator::from_table`].
+    pub fn from_table<const N: usize>(
+        table: &'a ModelTable<N, D>,
+        fixed: &'a FixedModel<N, D>,
+        limits: SensorLimits,
+    ) -> Result<Self, FixedError> {
+        Self::new(Compensator::from_table(table, limits), fixed.as_model())
     }
 }
 

@@ -172,11 +172,14 @@ const fn exp_below_31(x: u32) -> u32 {
 #[inline(always)]
 fn scale_inputs<const D: usize>(z: &[Z; D], sqrt_gamma: u32) -> [i32; D] {
     let sg = i64::from(sqrt_gamma);
-    // |z| < 2^31 and √γ < 2^32 (Q28): the product fits an i64.
-    core::array::from_fn(|d| {
-        let v = (i64::from(z[d].0) * sg + (1 << 27)) >> 28;
-        v.clamp(-i64::from(Z_LIM), i64::from(Z_LIM)) as i32
-    })
+    // |z| < 2^31 and √γ < 2^32 (Q28): the product fits an i64. Zipped, not indexed: no bounds
+    // check even where this is not inlined.
+    let mut zs = [0; D];
+    for (o, v) in zs.iter_mut().zip(z) {
+        let v = (i64::from(v.0) * sg + (1 << 27)) >> 28;
+        *o = v.clamp(-i64::from(Z_LIM), i64::from(Z_LIM)) as i32;
+    }
+    zs
 }
 
 /// −aᵢ·kᵢ of one support vector in Q52 (Q24·Q28), or `None` when its kernel argument reaches
