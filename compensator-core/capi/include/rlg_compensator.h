@@ -113,8 +113,8 @@ typedef enum rlg_error {
    */
   RLG_ERR_NOT_INITIALIZED = 3,
   /*
-   `n_features` is outside 1…`RLG_MAX_FEATURES`, `n_support` is 0 or too large for
-   memory, or the arrays disagree in length.
+   `n_features` is outside 1…`RLG_MAX_FEATURES` (or a count the library was built
+   without), `n_support` is 0 or too large for memory, or the arrays disagree in length.
    */
   RLG_ERR_TABLE_SHAPE = 4,
   /*

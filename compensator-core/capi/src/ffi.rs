@@ -179,13 +179,11 @@ macro_rules! by_d {
     };
 }
 
-/// A compensator for the table and the init's error code.
+/// A compensator for the table (whose own check may have failed: see its `table_error`).
 ///
 /// # Safety
 /// `t` as for [`parts`].
-unsafe fn f32_any<const D: usize>(
-    t: &rlg_table,
-) -> Result<(crate::state::F32Comp<D>, rlg_error), rlg_error> {
+unsafe fn f32_any<const D: usize>(t: &rlg_table) -> Result<crate::state::F32Comp<D>, rlg_error> {
     // SAFETY: the caller's contract.
     let p = unsafe { parts::<D>(t) }?;
     Ok(f32_compensator(p))
@@ -205,25 +203,6 @@ unsafe fn fixed_any<const D: usize>(
     // SAFETY: the caller's contract.
     let q = unsafe { fixed_parts::<D>(t, p.support.len()) }?;
     fixed_compensator(p, q)
-}
-
-/// Moves `D`'s result into the any-D form: `(AnyD<(C1, e), …>)` → `(AnyD<C1, …>, e)`.
-fn split<T1, T2, T3, T4, T5>(
-    v: AnyD<(T1, rlg_error), (T2, rlg_error), (T3, rlg_error), (T4, rlg_error), (T5, rlg_error)>,
-) -> (AnyD<T1, T2, T3, T4, T5>, rlg_error) {
-    match v {
-        #[cfg(feature = "inputs-1")]
-        AnyD::D1((c, e)) => (AnyD::D1(c), e),
-        #[cfg(feature = "inputs-2")]
-        AnyD::D2((c, e)) => (AnyD::D2(c), e),
-        #[cfg(feature = "inputs-3")]
-        AnyD::D3((c, e)) => (AnyD::D3(c), e),
-        #[cfg(feature = "inputs-4")]
-        AnyD::D4((c, e)) => (AnyD::D4(c), e),
-        #[cfg(feature = "inputs-5")]
-        AnyD::D5((c, e)) => (AnyD::D5(c), e),
-        AnyD::_None(never, _) => match never {},
-    }
 }
 
 /// The caller's state buffer as the initialised state behind it, or why not.
@@ -304,8 +283,8 @@ pub unsafe extern "C" fn rlg_init(
     });
     let (comp, code) = match built {
         Ok(any) => {
-            let (c, e) = split(any);
-            (Some(c), e)
+            let code = any.table_code();
+            (Some(any), code)
         }
         Err(e) => (None, e),
     };

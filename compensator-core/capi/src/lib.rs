@@ -13,6 +13,17 @@
 //! `no_std`, and the QEMU test links it with a panic handler that exists nowhere.
 #![cfg_attr(target_os = "none", no_std)]
 
+#[cfg(not(any(
+    feature = "inputs-1",
+    feature = "inputs-2",
+    feature = "inputs-3",
+    feature = "inputs-4",
+    feature = "inputs-5"
+)))]
+compile_error!(
+    "the library accepts no table: enable at least one of the features inputs-1 … inputs-5"
+);
+
 pub mod ffi;
 pub mod state;
 pub mod types;

@@ -154,11 +154,16 @@ pub struct F32State {
     pub comp: Option<F32Any>,
 }
 
-/// A compensator of D inputs from checked parts, and the error code of its table check.
-pub fn f32_compensator<const D: usize>(p: Parts<D>) -> (F32Comp<D>, rlg_error) {
-    let c = Compensator::from_parts(p.spec, p.support, p.alpha_dph, p.crc32, LIMITS);
-    let code = c.table_error().map_or(rlg_error::RLG_OK, table_error);
-    (c, code)
+/// A compensator of D inputs from checked parts (its table checked: CRC, then content).
+pub fn f32_compensator<const D: usize>(p: Parts<D>) -> F32Comp<D> {
+    Compensator::from_parts(p.spec, p.support, p.alpha_dph, p.crc32, LIMITS)
+}
+
+impl F32Any {
+    /// The error code of the table check (`RLG_OK` when the table passed).
+    pub fn table_code(&self) -> rlg_error {
+        each_d!(self, c => c.table_error().map_or(rlg_error::RLG_OK, table_error))
+    }
 }
 
 impl F32State {
@@ -200,9 +205,9 @@ pub fn fixed_compensator<const D: usize>(
     p: Parts<D>,
     q: FixedParts<D>,
 ) -> Result<FixedComp<D>, rlg_error> {
-    let (comp, code) = f32_compensator(p);
-    if code != rlg_error::RLG_OK {
-        return Err(code);
+    let comp = f32_compensator(p);
+    if let Some(e) = comp.table_error() {
+        return Err(table_error(e));
     }
     let m = compensator_core::ModelRef {
         spec: comp.spec(),

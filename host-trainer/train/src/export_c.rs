@@ -124,12 +124,22 @@ fn c_i32(v: i32) -> String {
     }
 }
 
+/// The fixed-point form of a table as the header writes it.
+struct FixedParts<const D: usize> {
+    /// √γ, Q28.
+    sqrt_gamma_q28: u32,
+    /// Support vectors times √γ, Q24.
+    support: Vec<[i32; D]>,
+    /// Coefficients, Q24.
+    alpha: Vec<i32>,
+    /// Bias, Q24.
+    bias: i32,
+}
+
 /// The fixed-point parts of `t` (√γ in Q28, support vectors × √γ, coefficients and bias in
 /// Q24), exactly as `rlg_fixed_init` checks them; `Err` with the reason when the table has no
 /// fixed-point form.
-fn fixed_parts<const D: usize>(
-    t: &ModelRef<'_, D>,
-) -> Result<(u32, Vec<[i32; D]>, Vec<i32>, i32), fixed::FixedError> {
+fn fixed_parts<const D: usize>(t: &ModelRef<'_, D>) -> Result<FixedParts<D>, fixed::FixedError> {
     let sg = fixed::sqrt_gamma_q28(t.spec.gamma)?;
     let support = t
         .support
@@ -147,12 +157,12 @@ fn fixed_parts<const D: usize>(
     q(t.spec.reference_dph, "reference_dph")?;
     // The same check as the board's init (linear terms, Σ|a|): what is written is accepted.
     FixedModelRef::verified(t, &support, &alpha, sg, bias)?;
-    Ok((
-        sg,
-        support.iter().map(|v| v.map(|z| z.0)).collect(),
-        alpha.iter().map(|a| a.0).collect(),
-        bias.0,
-    ))
+    Ok(FixedParts {
+        sqrt_gamma_q28: sg,
+        support: support.iter().map(|v| v.map(|z| z.0)).collect(),
+        alpha: alpha.iter().map(|a| a.0).collect(),
+        bias: bias.0,
+    })
 }
 
 /// The C header text of table `t` with symbol prefix `name`; `what` is one line of provenance
@@ -340,7 +350,12 @@ pub fn c_header<const D: usize>(
     let _ = writeln!(o, "    &{p}_support[0][0], {p}_alpha_dph, {crc:#010x}u,");
     let _ = writeln!(o, "}};");
     match fixed_parts(t) {
-        Ok((sg, support, alpha, bias)) => {
+        Ok(FixedParts {
+            sqrt_gamma_q28: sg,
+            support,
+            alpha,
+            bias,
+        }) => {
             let _ = writeln!(
                 o,
                 "/* Fixed-point form (compensator_core::fixed): rlg_fixed_init(&state, &{p}_fixed_model)."
