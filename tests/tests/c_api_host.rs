@@ -25,7 +25,6 @@ const N: usize = tests::DEFAULT_TABLE_SV;
 
 /// What every test here shares: the record, the three axes' tables, the built programs.
 struct Setup {
-    dir: PathBuf,
     record: Vec<ReplaySample>,
     replay_file: PathBuf,
     axes: [ModelTable<N, 2>; 3],
@@ -113,7 +112,6 @@ fn setup() -> Option<&'static Setup> {
                 replay_exe: exe("c_api_replay"),
                 readme_exe: exe("c_api_readme"),
                 bad_exe: exe("c_api_bad_input"),
-                dir,
                 record,
                 replay_file,
                 axes,
@@ -367,5 +365,4 @@ fn bad_input_gives_codes_and_status_bits_never_a_fault() {
         }
     }
     assert_eq!(lines.len(), codes.len() + seq.len(), "{text}");
-    let _ = &s.dir;
 }

@@ -166,7 +166,7 @@ typedef struct rlg_feature {
 
 /*
  A model table as C code holds it: the exported f32 numbers, in flash. Generated per axis by
- the table export (`<name>_table`); every pointer must stay valid, and the numbers
+ the table export (`<name>_model`); every pointer must stay valid, and the numbers
  unchanged, for as long as a state initialised from it is used.
  */
 typedef struct rlg_table {
@@ -271,7 +271,7 @@ typedef struct rlg_fixed_compensator {
 } rlg_fixed_compensator;
 
 /*
- The fixed-point form of a table (exported beside it as `<name>_fixed_table` when the table
+ The fixed-point form of a table (exported beside it as `<name>_fixed_model` when the table
  has one): the f32 table, whose CRC covers it, and its integer parts, which `rlg_fixed_init`
  checks against the conversion of the f32 numbers.
  */
@@ -327,9 +327,9 @@ enum rlg_error rlg_init(struct rlg_compensator *state, const struct rlg_table *t
  period, also when a reading failed (pass NAN): the dT/dt estimator counts calls as time.
 
  Writes the output to `*out` and returns `RLG_OK`; with `RLG_STATUS_TABLE_FAULT` set the raw
- rate was passed through. `RLG_ERR_NOT_INITIALIZED` (a state `rlg_init` never set up) also
- writes the raw rate with `RLG_STATUS_TABLE_FAULT`; `RLG_ERR_NULL` / `RLG_ERR_ALIGNMENT` for
- `out` write nothing.
+ rate was passed through. A state that cannot be used (`RLG_ERR_NOT_INITIALIZED`: never set
+ up by `rlg_init`; `RLG_ERR_NULL`, `RLG_ERR_ALIGNMENT`: the `state` pointer) still gets the
+ raw rate written with `RLG_STATUS_TABLE_FAULT`; a NULL or misaligned `out` gets nothing.
 
  # Safety
  `state`: NULL or an `rlg_compensator` not used concurrently; `out`: NULL or writable.

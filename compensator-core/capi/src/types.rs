@@ -79,7 +79,7 @@ pub struct rlg_feature {
 }
 
 /// A model table as C code holds it: the exported f32 numbers, in flash. Generated per axis by
-/// the table export (`<name>_table`); every pointer must stay valid, and the numbers
+/// the table export (`<name>_model`); every pointer must stay valid, and the numbers
 /// unchanged, for as long as a state initialised from it is used.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
@@ -122,7 +122,7 @@ pub struct rlg_table {
     pub crc32: u32,
 }
 
-/// The fixed-point form of a table (exported beside it as `<name>_fixed_table` when the table
+/// The fixed-point form of a table (exported beside it as `<name>_fixed_model` when the table
 /// has one): the f32 table, whose CRC covers it, and its integer parts, which `rlg_fixed_init`
 /// checks against the conversion of the f32 numbers.
 #[repr(C)]
