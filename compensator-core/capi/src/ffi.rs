@@ -300,9 +300,10 @@ pub unsafe extern "C" fn rlg_init(
 /// period, also when a reading failed (pass NAN): the dT/dt estimator counts calls as time.
 ///
 /// Writes the output to `*out` and returns `RLG_OK`; with `RLG_STATUS_TABLE_FAULT` set the raw
-/// rate was passed through. A state that cannot be used (`RLG_ERR_NOT_INITIALIZED`: never set
-/// up by `rlg_init`; `RLG_ERR_NULL`, `RLG_ERR_ALIGNMENT`: the `state` pointer) still gets the
-/// raw rate written with `RLG_STATUS_TABLE_FAULT`; a NULL or misaligned `out` gets nothing.
+/// rate was passed through. For a state that cannot be used (`RLG_ERR_NOT_INITIALIZED`: never
+/// set up by `rlg_init`; `RLG_ERR_NULL`, `RLG_ERR_ALIGNMENT`: the `state` pointer) the raw rate
+/// is still written to `*out`, with `RLG_STATUS_TABLE_FAULT`; a NULL or misaligned `out` gets
+/// nothing.
 ///
 /// # Safety
 /// `state`: NULL or an `rlg_compensator` not used concurrently; `out`: NULL or writable.
