@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # Every test of the project, from a fresh Debian machine with Rust (README: "Run every test").
-# Installs what is missing (thumb targets, qemu-system-arm) through tests/setup.sh first.
+# Installs what is missing (thumb targets, qemu-system-arm, the C compilers) through
+# tests/setup.sh first.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 step() { printf '\n==> %s\n' "$*"; }
 
-step "setup (targets, qemu-system-arm)"
+step "setup (targets, qemu-system-arm, cc, arm-none-eabi-gcc)"
 bash tests/setup.sh
 
 step "format"
@@ -22,10 +23,16 @@ cargo build -p compensator-core --target thumbv7m-none-eabi
 step "clippy, firmware for the board"
 cargo clippy -p firmware --target thumbv7em-none-eabihf --profile firmware --features no-panic-proof -- -D warnings
 
+step "the C API's library for the boards, as a C team builds it (clippy, then librlg_compensator.a)"
+for target in thumbv7em-none-eabihf thumbv7m-none-eabi; do
+    cargo clippy -p compensator-capi --target "$target" --profile firmware -- -D warnings
+    cargo build -p compensator-capi --target "$target" --profile firmware
+done
+
 step "the firmware as a firmware engineer builds it first (plain release)"
 cargo build -p firmware --release --target thumbv7em-none-eabihf
 
-step "tests (host crates, firmware logic on the host, firmware in QEMU)"
+step "tests (host crates, firmware logic on the host, firmware in QEMU, the C API from C)"
 cargo test --workspace
 
 step "diagnosis benchmark, quick set (release; regression floors on detection and false alarms)"

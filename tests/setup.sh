@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs what the firmware build and the QEMU replay test need on a Debian machine with Rust:
-# the thumb targets, rustfmt, clippy and qemu-system-arm. Idempotent: installs only what is
-# missing and says what it did.
+# the thumb targets, rustfmt, clippy and qemu-system-arm; and what the C API's tests need: the
+# host C compiler `cc` and the bare-metal Arm C toolchain (arm-none-eabi-gcc with newlib).
+# Idempotent: installs only what is missing and says what it did.
 set -euo pipefail
 
 cd "$(dirname "$0")/.."
@@ -41,15 +42,43 @@ for component in rustfmt clippy; do
     fi
 done
 
+sudo=""
+if [ "$(id -u)" -ne 0 ]; then
+    sudo="sudo"
+fi
+apt_updated=""
+# Installs Debian packages "$@" (apt-get update once per run).
+apt_install() {
+    if [ -z "$apt_updated" ]; then
+        $sudo apt-get update
+        apt_updated=1
+    fi
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y --no-install-recommends "$@"
+}
+
 if command -v qemu-system-arm >/dev/null 2>&1; then
     echo "setup: qemu-system-arm already installed ($(qemu-system-arm --version | head -n1))"
 else
-    sudo=""
-    if [ "$(id -u)" -ne 0 ]; then
-        sudo="sudo"
-    fi
     echo "setup: installing qemu-system-arm with apt-get"
-    $sudo apt-get update
-    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y --no-install-recommends qemu-system-arm
+    apt_install qemu-system-arm
     echo "setup: installed $(qemu-system-arm --version | head -n1)"
+fi
+
+# The C API's host test compiles C with the system compiler.
+if command -v cc >/dev/null 2>&1; then
+    echo "setup: cc already installed ($(cc --version | head -n1))"
+else
+    echo "setup: installing gcc (the host C compiler cc) with apt-get"
+    apt_install gcc libc6-dev
+fi
+
+# The C API's QEMU test builds a C firmware image against the thumb library: arm-none-eabi-gcc
+# and newlib's C library for it (memcpy and the like).
+if command -v arm-none-eabi-gcc >/dev/null 2>&1 \
+    && [ -f "$(arm-none-eabi-gcc -mthumb -mcpu=cortex-m4 -print-file-name=libc_nano.a)" ]; then
+    echo "setup: arm-none-eabi-gcc and newlib already installed ($(arm-none-eabi-gcc --version | head -n1))"
+else
+    echo "setup: installing gcc-arm-none-eabi and libnewlib-arm-none-eabi with apt-get"
+    apt_install gcc-arm-none-eabi libnewlib-arm-none-eabi
+    echo "setup: installed $(arm-none-eabi-gcc --version | head -n1)"
 fi

@@ -30,9 +30,11 @@
 //! Every output is finite: the raw rate is only passed through when it is finite, and the
 //! model's output is finite for clamped finite features and a validated table.
 
+use core::borrow::Borrow;
+
 use crate::features::FeatureBank;
 use crate::rate::{RateEstimate, RateEstimator};
-use crate::table::{ModelRef, ModelTable, TableError};
+use crate::table::{ModelRef, ModelSpec, ModelTable, TableError};
 
 /// Bit set describing one output sample. `Status::OK` (no bit) means compensated normally.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -146,9 +148,16 @@ pub struct Compensated {
 }
 
 /// Runs the feature estimators and the model on each 1 Hz sample.
+///
+/// `S` holds the table's [`ModelSpec`]: by default a reference (a Rust table in flash, which
+/// the optimiser sees through), or the spec itself ([`Compensator::from_parts`]: a table laid
+/// out by C code, so that the state borrows only the support vectors and coefficients and a C
+/// caller may move or copy it).
 #[derive(Clone, Debug)]
-pub struct Compensator<'a, const D: usize> {
-    model: ModelRef<'a, D>,
+pub struct Compensator<'a, const D: usize, S: Borrow<ModelSpec<D>> = &'a ModelSpec<D>> {
+    spec: S,
+    support: &'a [[f32; D]],
+    alpha_dph: &'a [f32],
     limits: SensorLimits,
     table_ok: bool,
     table_error: Option<TableError>,
@@ -186,20 +195,71 @@ impl<'a, const D: usize> Compensator<'a, D> {
     }
 
     fn with_check(model: ModelRef<'a, D>, limits: SensorLimits, err: Option<TableError>) -> Self {
+        Self::build(model.spec, model.support, model.alpha_dph, limits, err)
+    }
+}
+
+impl<'a, const D: usize> Compensator<'a, D, ModelSpec<D>> {
+    /// A compensator for a table given as its parts (a table laid out by C code, whose
+    /// [`ModelSpec`] the caller assembled and the compensator keeps): the stored `crc32` and
+    /// then the content are checked once here, as by [`Compensator::from_table`].
+    pub fn from_parts(
+        spec: ModelSpec<D>,
+        support: &'a [[f32; D]],
+        alpha_dph: &'a [f32],
+        crc32: u32,
+        limits: SensorLimits,
+    ) -> Self {
+        let model = ModelRef {
+            spec: &spec,
+            support,
+            alpha_dph,
+        };
+        let err = model.verify(crc32).err();
+        Self::build(spec, support, alpha_dph, limits, err)
+    }
+}
+
+impl<'a, const D: usize, S: Borrow<ModelSpec<D>>> Compensator<'a, D, S> {
+    fn build(
+        spec: S,
+        support: &'a [[f32; D]],
+        alpha_dph: &'a [f32],
+        limits: SensorLimits,
+        err: Option<TableError>,
+    ) -> Self {
+        let s: &ModelSpec<D> = spec.borrow();
+        let (rate, bank) = (
+            RateEstimator::new(s.rate_filter),
+            FeatureBank::new(s.features, s.rate_filter.dt_s),
+        );
+        let linear = s.linear_dph.iter().any(|b| *b != 0.0);
         Compensator {
-            model,
+            spec,
+            support,
+            alpha_dph,
             limits,
             table_ok: err.is_none(),
             table_error: err,
-            rate: RateEstimator::new(model.spec.rate_filter),
-            bank: FeatureBank::new(model.spec.features, model.spec.rate_filter.dt_s),
+            rate,
+            bank,
             skipped: 0,
             last_good_dph: 0.0,
             last_temp_bits: 0,
             repeats: 0,
             have_last: false,
             stuck_armed: false,
-            linear: model.spec.linear_dph.iter().any(|b| *b != 0.0),
+            linear,
+        }
+    }
+
+    /// The model: the spec and the borrowed arrays.
+    #[inline(always)]
+    fn model(&self) -> ModelRef<'_, D> {
+        ModelRef {
+            spec: self.spec.borrow(),
+            support: self.support,
+            alpha_dph: self.alpha_dph,
         }
     }
 
@@ -213,12 +273,20 @@ impl<'a, const D: usize> Compensator<'a, D> {
         self.table_error
     }
 
+    /// The table's spec.
+    pub fn spec(&self) -> &ModelSpec<D> {
+        self.spec.borrow()
+    }
+
     /// The feature vector the model sees for a temperature estimate, before clamping, with
     /// the recursive features ([`crate::features`]) at their current state.
     pub fn features(&self, temp_c: f32, est: &RateEstimate) -> [f32; D] {
         self.bank.values(temp_c, est)
     }
 
+    // Inlined into the 1 Hz update: the C library's update, one function per input count, kept
+    // it out of line at opt-level "s" and paid a call and spills per sample.
+    #[inline(always)]
     fn temp_is_plausible(&self, temp_c: f32) -> bool {
         let l = &self.limits;
         if !(temp_c >= l.temp_min_c && temp_c <= l.temp_max_c) {
@@ -232,11 +300,12 @@ impl<'a, const D: usize> Compensator<'a, D> {
         let est = self.rate.estimate();
         let predicted = est.level_c + est.rate_c_per_s * self.rate.filter().dt_s;
         let periods = self.skipped.saturating_add(1) as f32;
-        libm::fabsf(temp_c - predicted) <= l.max_temp_step_c * periods
+        (temp_c - predicted).abs() <= l.max_temp_step_c * periods
     }
 
     /// Whether the last accepted temperature reading has repeated `stuck_samples` times
     /// although the body was moving when it appeared.
+    #[inline(always)]
     fn is_stuck(&self) -> bool {
         self.stuck_armed
             && self.limits.stuck_samples > 0
@@ -255,7 +324,33 @@ impl<'a, const D: usize> Compensator<'a, D> {
     }
 
     /// Processes one 1 Hz sample.
+    #[inline]
     pub fn update(&mut self, temp_c: f32, gyro_dph: f32) -> Compensated {
+        let linear = self.linear;
+        self.update_with(temp_c, gyro_dph, |model, x| {
+            let f = if linear {
+                model.predict_dph(x)
+            } else {
+                // The same value: predict_dph adds a linear sum of exactly 0.
+                model.predict_standardised_dph(&model.standardise(x))
+            };
+            f - model.spec.reference_dph
+        })
+    }
+
+    /// [`Compensator::update`] with the model evaluated by `correction_dph`, which receives the
+    /// model and the feature vector clamped to the trained range and returns the correction
+    /// f(x) − reference, °/h (a non-finite value leaves the raw rate uncompensated). Every rule
+    /// of the module doc applies unchanged; `correction_dph` is called only for an accepted
+    /// temperature of a valid table. The fixed-point compensator
+    /// ([`crate::fixed::FixedCompensator`]) evaluates Eq. (10) in integers through it.
+    #[inline(always)]
+    pub fn update_with(
+        &mut self,
+        temp_c: f32,
+        gyro_dph: f32,
+        correction_dph: impl FnOnce(&ModelRef<'_, D>, &[f32; D]) -> f32,
+    ) -> Compensated {
         if !self.table_ok {
             let (rate_dph, status) = if gyro_dph.is_finite() {
                 (gyro_dph, Status::TABLE_FAULT)
@@ -273,7 +368,7 @@ impl<'a, const D: usize> Compensator<'a, D> {
         }
 
         let mut status = Status::OK;
-        let gyro_ok = gyro_dph.is_finite() && libm::fabsf(gyro_dph) <= self.limits.rate_limit_dph;
+        let gyro_ok = gyro_dph.is_finite() && gyro_dph.abs() <= self.limits.rate_limit_dph;
         if !gyro_ok {
             status |= Status::GYRO_FAULT;
         }
@@ -282,7 +377,7 @@ impl<'a, const D: usize> Compensator<'a, D> {
             let held = f32::from_bits(self.last_temp_bits);
             let l = &self.limits;
             let in_band = temp_c >= l.temp_min_c && temp_c <= l.temp_max_c; // false for NaN
-            if in_band && libm::fabsf(temp_c - held) > l.max_temp_step_c {
+            if in_band && (temp_c - held).abs() > l.max_temp_step_c {
                 // Rule 4: the frozen span ends with a jump; restart at the new reading.
                 self.restart_estimator();
             }
@@ -297,8 +392,8 @@ impl<'a, const D: usize> Compensator<'a, D> {
                 self.repeats = 0;
                 let l = &self.limits;
                 let window_s = l.stuck_samples as f32 * self.rate.filter().dt_s;
-                self.stuck_armed = !est.warming_up
-                    && libm::fabsf(est.rate_c_per_s) * window_s >= l.stuck_min_change_c;
+                self.stuck_armed =
+                    !est.warming_up && est.rate_c_per_s.abs() * window_s >= l.stuck_min_change_c;
             }
             self.last_temp_bits = bits;
             self.have_last = true;
@@ -309,7 +404,7 @@ impl<'a, const D: usize> Compensator<'a, D> {
                 status |= Status::WARMING_UP;
             }
             let mut x = self.bank.update(temp_c, &est);
-            let s = self.model.spec;
+            let s: &ModelSpec<D> = self.spec.borrow();
             for ((v, lo), hi) in x.iter_mut().zip(s.input_lo).zip(s.input_hi) {
                 // Written so that a NaN could never pass (it cannot reach here anyway).
                 if !(*v >= lo && *v <= hi) {
@@ -317,14 +412,7 @@ impl<'a, const D: usize> Compensator<'a, D> {
                     *v = if *v > hi { hi } else { lo };
                 }
             }
-            let f = if self.linear {
-                self.model.predict_dph(&x)
-            } else {
-                // The same value: predict_dph adds a linear sum of exactly 0.
-                self.model
-                    .predict_standardised_dph(&self.model.standardise(&x))
-            };
-            Some(f - s.reference_dph)
+            Some(correction_dph(&self.model(), &x))
         } else {
             status |= Status::TEMP_FAULT;
             self.skipped = self.skipped.saturating_add(1);

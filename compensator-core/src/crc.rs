@@ -38,6 +38,32 @@ pub const fn feature_code(f: Feature) -> u32 {
     }
 }
 
+/// The feature of a code and parameter ([`feature_code`], [`Feature::parameter`]): how a table
+/// laid out by C code names its features. `None` for an unknown code, a parameter given to a
+/// feature that has none, or a zero time constant (as [`Feature::parse`] refuses).
+pub const fn feature_from_code(code: u32, param: u32) -> Option<Feature> {
+    let f = match code {
+        0 => Feature::TempC,
+        1 => Feature::TempRateCPerS,
+        2 => Feature::TempLeadC { tau_s: param },
+        3 => Feature::TempGradLagCPerS { tau_s: param },
+        4 => Feature::TempPlayC { width_mc: param },
+        5 => Feature::TimeOnS,
+        6 => Feature::WarmupDecay { tau_s: param },
+        _ => return None,
+    };
+    let ok = match f {
+        Feature::TempC | Feature::TempRateCPerS | Feature::TimeOnS => param == 0,
+        Feature::TempGradLagCPerS { .. } | Feature::WarmupDecay { .. } => param > 0,
+        Feature::TempLeadC { .. } | Feature::TempPlayC { .. } => true,
+    };
+    if ok {
+        Some(f)
+    } else {
+        None
+    }
+}
+
 fn put_u32(d: &mut Digest<'_, u32, NoTable>, v: u32) {
     d.update(&v.to_le_bytes());
 }
@@ -97,6 +123,30 @@ mod tests {
     use super::*;
     use crate::rate::RateFilter;
     use crate::table::{ModelSpec, ModelTable};
+
+    /// Every feature's code and parameter map back to it; unknown codes, stray parameters and
+    /// zero time constants are refused.
+    #[test]
+    fn feature_codes_round_trip() {
+        let all = [
+            Feature::TempC,
+            Feature::TempRateCPerS,
+            Feature::TempLeadC { tau_s: 0 },
+            Feature::TempLeadC { tau_s: 600 },
+            Feature::TempGradLagCPerS { tau_s: 90 },
+            Feature::TempPlayC { width_mc: 150 },
+            Feature::TimeOnS,
+            Feature::WarmupDecay { tau_s: 1200 },
+        ];
+        for f in all {
+            let param = f.parameter().map_or(0, |(_, v)| v);
+            assert_eq!(feature_from_code(feature_code(f), param), Some(f), "{f}");
+        }
+        assert_eq!(feature_from_code(7, 0), None);
+        assert_eq!(feature_from_code(0, 1), None);
+        assert_eq!(feature_from_code(3, 0), None);
+        assert_eq!(feature_from_code(6, 0), None);
+    }
 
     /// The published check value of CRC-32/ISO-HDLC.
     #[test]

@@ -10,7 +10,8 @@
 //! * [`table`]: the exported model table and its validation.
 //! * [`features`]: recursive lead, lagged-gradient, play and time-on features.
 //! * [`fastexp`]: a faster kernel exp, offered with its measured accuracy cost.
-//! * [`fixed`]: integer-only evaluation of Eq. (10) for FPU-less boards.
+//! * [`fixed`]: integer-only evaluation of Eq. (10) for FPU-less boards, and the compensator
+//!   around it ([`fixed::FixedCompensator`]).
 //! * [`crc`]: the table's CRC-32, computed at export and checked at boot.
 //! * [`lssvm`]: f32 evaluation of Eq. (10).
 //! * [`physics`]: the recursive physics primitives (lag, play, lead, decay), generic over

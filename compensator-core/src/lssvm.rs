@@ -16,7 +16,15 @@ impl<const D: usize> ModelRef<'_, D> {
     #[inline]
     pub fn standardise(&self, x: &[f32; D]) -> [f32; D] {
         let s = self.spec;
-        core::array::from_fn(|d| (x[d] - s.input_mean[d]) * s.input_inv_scale[d])
+        // `get`, not indexing: no bounds check survives even where this is not inlined (the C
+        // library holds five input counts; its link proves it panic-free). Inlined, the `None`
+        // arms vanish and the code is that of plain indexing.
+        core::array::from_fn(
+            |d| match (x.get(d), s.input_mean.get(d), s.input_inv_scale.get(d)) {
+                (Some(x), Some(m), Some(k)) => (x - m) * k,
+                _ => 0.0,
+            },
+        )
     }
 
     /// The model at a raw (unstandardised) feature vector, °/h: Eq. (10) plus the linear

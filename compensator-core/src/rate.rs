@@ -106,6 +106,9 @@ impl RateEstimator {
     ///
     /// The caller must pass finite samples; a missing or faulty sample is handled with
     /// [`RateEstimator::skip`] instead.
+    // Inlined into the 1 Hz update: the C library's update, one function per input count, kept
+    // it out of line at opt-level "s" and paid a call and spills per sample.
+    #[inline(always)]
     pub fn update(&mut self, temp_c: f32) -> RateEstimate {
         if self.absorbed == 0 {
             self.level_c = temp_c;

@@ -179,14 +179,7 @@ impl<const N: usize, const D: usize> ModelTable<N, D> {
     /// Checks the stored CRC against the content, then [`ModelRef::validate`]: everything the
     /// board checks once at boot before trusting the table.
     pub fn verify(&self) -> Result<(), TableError> {
-        let computed = self.as_model().content_crc32();
-        if computed != self.crc32 {
-            return Err(TableError::Checksum {
-                stored: self.crc32,
-                computed,
-            });
-        }
-        self.as_model().validate()
+        self.as_model().verify(self.crc32)
     }
 }
 
@@ -248,6 +241,19 @@ impl core::fmt::Display for TableError {
 impl core::error::Error for TableError {}
 
 impl<const D: usize> ModelRef<'_, D> {
+    /// Checks a stored CRC-32 against the content, then [`ModelRef::validate`]: the boot check
+    /// of [`ModelTable::verify`] for a table held as parts.
+    pub fn verify(&self, stored_crc32: u32) -> Result<(), TableError> {
+        let computed = self.content_crc32();
+        if computed != stored_crc32 {
+            return Err(TableError::Checksum {
+                stored: stored_crc32,
+                computed,
+            });
+        }
+        self.validate()
+    }
+
     /// Checks everything the evaluator relies on to stay finite.
     pub fn validate(&self) -> Result<(), TableError> {
         let s = self.spec;

@@ -37,6 +37,8 @@ pub fn evaluate(
         ])
         .arg("-I")
         .arg(dir)
+        .arg("-I")
+        .arg(crate::capi::include_dir())
         .arg(src)
         .arg("-o")
         .arg(&exe)

@@ -273,6 +273,63 @@ pub fn run_qemu_on(
     cpu: &str,
     timeout: Duration,
 ) -> Result<QemuRun, FirmwareError> {
+    let raw = spawn_qemu(elf, machine, cpu, timeout)?;
+    let elf_bytes = std::fs::read(elf).map_err(io_err(elf))?;
+    let log = decode_defmt(&elf_bytes, &raw.stdout).map_err(|e| match e {
+        DefmtFailure::Table(reason) => FirmwareError::DefmtTable {
+            path: elf.display().to_string(),
+            reason,
+        },
+        DefmtFailure::Malformed(n) => FirmwareError::DefmtMalformed(n),
+    })?;
+    finish_run(raw, log)
+}
+
+/// Like [`run_qemu_on`] for an image that logs plain text lines on stdout (the C images of
+/// the C API's tests) instead of defmt frames.
+pub fn run_qemu_text(
+    elf: &Path,
+    machine: &str,
+    cpu: &str,
+    timeout: Duration,
+) -> Result<QemuRun, FirmwareError> {
+    let raw = spawn_qemu(elf, machine, cpu, timeout)?;
+    let log = String::from_utf8_lossy(&raw.stdout)
+        .lines()
+        .map(str::to_owned)
+        .collect();
+    finish_run(raw, log)
+}
+
+/// What QEMU left: its exit code, both streams and the wall-clock time.
+struct RawRun {
+    exit_code: Option<i32>,
+    stdout: Vec<u8>,
+    stderr: Vec<u8>,
+    elapsed: Duration,
+}
+
+fn finish_run(raw: RawRun, log: Vec<String>) -> Result<QemuRun, FirmwareError> {
+    let mut run = QemuRun {
+        exit_code: raw.exit_code,
+        log,
+        records: Vec::new(),
+        begin_count: None,
+        end_count: None,
+        other_stderr: Vec::new(),
+        elapsed: raw.elapsed,
+    };
+    parse_lines(&String::from_utf8_lossy(&raw.stderr), &mut run)?;
+    Ok(run)
+}
+
+/// Runs `elf` in QEMU with [`QEMU_ARGS`] on `machine` and `cpu`, killing it after `timeout`.
+fn spawn_qemu(
+    elf: &Path,
+    machine: &str,
+    cpu: &str,
+    timeout: Duration,
+) -> Result<RawRun, FirmwareError> {
     let mut args = QEMU_ARGS;
     args[1] = machine;
     args[3] = cpu;
@@ -309,29 +366,12 @@ pub fn run_qemu_on(
         }
         std::thread::sleep(Duration::from_millis(10));
     };
-    let stdout = out_t.join().unwrap_or_default();
-    let stderr = err_t.join().unwrap_or_default();
-    let elapsed = start.elapsed();
-
-    let elf_bytes = std::fs::read(elf).map_err(io_err(elf))?;
-    let log = decode_defmt(&elf_bytes, &stdout).map_err(|e| match e {
-        DefmtFailure::Table(reason) => FirmwareError::DefmtTable {
-            path: elf.display().to_string(),
-            reason,
-        },
-        DefmtFailure::Malformed(n) => FirmwareError::DefmtMalformed(n),
-    })?;
-    let mut run = QemuRun {
+    Ok(RawRun {
         exit_code: status.code(),
-        log,
-        records: Vec::new(),
-        begin_count: None,
-        end_count: None,
-        other_stderr: Vec::new(),
-        elapsed,
-    };
-    parse_lines(&String::from_utf8_lossy(&stderr), &mut run)?;
-    Ok(run)
+        stdout: out_t.join().unwrap_or_default(),
+        stderr: err_t.join().unwrap_or_default(),
+        elapsed: start.elapsed(),
+    })
 }
 
 enum DefmtFailure {

@@ -4,11 +4,13 @@
 //! * [`replay`]: the firmware's replay file format (writer and reader) and the QEMU scenario.
 //! * [`e2e`]: the README's main job (train, export, run the board image, compare).
 //! * [`budgets`]: board budgets (instructions, flash, RAM, stack) measured in QEMU.
+//! * [`capi`]: the C API's library, C programs built against it, the held-out record.
 //! * [`firmware`]: build the board image for a replay file, run it in QEMU, decode its output.
 //! * [`fuzz_checks`]: the properties the fuzz targets check, replayed on the kept corpus.
 
 pub mod budgets;
 pub mod c_header;
+pub mod capi;
 pub mod e2e;
 pub mod firmware;
 pub mod fuzz_checks;

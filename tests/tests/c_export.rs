@@ -5,7 +5,7 @@
 //! Without a C compiler the test fails, unless `RLG_ALLOW_MISSING_TOOLS` is set.
 
 use rlg_train::export::F32Model;
-use rlg_train::export_c::c_header;
+use rlg_train::export_c::{c_header, CName};
 
 /// Agreement budget of an f32 evaluator with the f64 reference, °/h.
 const BUDGET_DPH: f64 = 1e-5;
@@ -20,7 +20,8 @@ fn c_evaluator_matches_the_f64_reference_and_the_crc() {
     };
     assert_eq!(model.crc32(), table.crc32);
     let header = c_header(
-        &model,
+        &model.as_model(),
+        &CName::default(),
         "the committed board table (firmware/src/model_table.rs)",
     )
     .unwrap();

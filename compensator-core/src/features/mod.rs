@@ -75,6 +75,9 @@ impl<const D: usize> FeatureBank<D> {
 
     /// Absorbs one accepted temperature with the estimator's estimate after it, and returns
     /// the feature vector.
+    // Inlined into the 1 Hz update: the C library's update, one function per input count, kept
+    // it out of line at opt-level "s" and paid a call and spills per sample.
+    #[inline(always)]
     pub fn update(&mut self, temp_c: f32, est: &RateEstimate) -> [f32; D] {
         let r = est.rate_c_per_s;
         for st in &mut self.states {
@@ -92,6 +95,7 @@ impl<const D: usize> FeatureBank<D> {
     }
 
     /// One period passes: time on and the warm-up decay advance.
+    #[inline(always)]
     fn advance(&mut self) {
         for st in &mut self.states {
             if let State::Decay { keep, w } = st {
@@ -126,7 +130,18 @@ impl<const D: usize> FeatureBank<D> {
     /// The feature vector for the current state, at temperature `temp_c` and estimate `est`
     /// (time since power-on is that of the sample being processed).
     pub fn values(&self, temp_c: f32, est: &RateEstimate) -> [f32; D] {
-        core::array::from_fn(|d| match (self.features[d], self.states[d]) {
+        // `get`, not indexing: no bounds check even where this is not inlined (the C library
+        // holds five input counts); inlined, the `None` arm vanishes.
+        core::array::from_fn(|d| match (self.features.get(d), self.states.get(d)) {
+            (Some(f), Some(st)) => self.value(*f, *st, temp_c, est),
+            _ => temp_c,
+        })
+    }
+
+    /// One feature's value (see [`FeatureBank::values`]).
+    #[inline(always)]
+    fn value(&self, f: Feature, st: State, temp_c: f32, est: &RateEstimate) -> f32 {
+        match (f, st) {
             (Feature::TempC, _) => temp_c,
             (Feature::TempRateCPerS, _) => est.rate_c_per_s,
             (Feature::TempLeadC { tau_s }, _) => lead(temp_c, tau_s as f32, est.rate_c_per_s),
@@ -136,7 +151,7 @@ impl<const D: usize> FeatureBank<D> {
             (Feature::TimeOnS, _) => self.periods as f32 * self.dt_s,
             // A future feature this build does not compute: T, so the output stays finite.
             _ => temp_c,
-        })
+        }
     }
 }
 

@@ -25,10 +25,16 @@
 
 use crate::table::ModelTable;
 
+pub mod compensator;
+pub mod parts;
 pub mod trace;
+pub use compensator::FixedCompensator;
+pub use parts::{scaled_vector, sqrt_gamma_q28, FixedModelRef};
 pub use trace::FixedTrace;
 
-/// A signed fixed-point number: the `i32` holds value·2^F.
+/// A signed fixed-point number: the `i32` holds value·2^F (laid out as that `i32`, so C code
+/// can hand over an `int32_t` array).
+#[repr(transparent)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Q<const F: u32>(pub i32);
@@ -107,8 +113,10 @@ const EXP_STEP_Q62: u128 = 4_469_799_356_029_710_115;
 const X_MAX_Q27: u32 = 31 << 27;
 /// The high word of a squared distance (Q48) at or above which the argument is ≥ 31.
 const CUT_HI: u32 = 31 << 16;
+/// Bound of Σ|aᵢ| in Q24 (2048 °/h): Σ|aᵢ|·2^24 times kernels below 2^28 stays below 2^63.
+pub(crate) const ABS_ALPHA_SUM_LIMIT: i64 = 1 << 35;
 /// Bound of scaled support vectors and inputs: ±32 in Q24.
-const Z_LIM: i32 = 1 << 29;
+pub(crate) const Z_LIM: i32 = 1 << 29;
 
 /// e^(−i/32) in Q29 for i = 0..1024 (i ≥ 992 is never used: x < 31), by repeated
 /// multiplication in Q62 (the accumulated error, ≤ 1024·2^−62, is far below Q29's step).
@@ -160,6 +168,61 @@ const fn exp_below_31(x: u32) -> u32 {
     mul_hi(EXP_STEPS[i], t)
 }
 
+/// The input of Eq. (10) scaled by √γ (Q28) into Q24 and clamped to ±32.
+#[inline(always)]
+fn scale_inputs<const D: usize>(z: &[Z; D], sqrt_gamma: u32) -> [i32; D] {
+    let sg = i64::from(sqrt_gamma);
+    // |z| < 2^31 and √γ < 2^32 (Q28): the product fits an i64. Zipped, not indexed: no bounds
+    // check even where this is not inlined.
+    let mut zs = [0; D];
+    for (o, v) in zs.iter_mut().zip(z) {
+        let v = (i64::from(v.0) * sg + (1 << 27)) >> 28;
+        *o = v.clamp(-i64::from(Z_LIM), i64::from(Z_LIM)) as i32;
+    }
+    zs
+}
+
+/// −aᵢ·kᵢ of one support vector in Q52 (Q24·Q28), or `None` when its kernel argument reaches
+/// 31 (the term is below every coefficient's resolution).
+#[inline(always)]
+fn neg_term<const D: usize>(zs: &[i32; D], sv: &[Z; D], a: Dph) -> Option<i64> {
+    // γ‖z − zᵢ‖² in Q48: differences within ±2^30, squares below 2^60, and fewer than 16 of
+    // them (`D_FITS`): no overflow. The first two inputs are written out: at the board's
+    // opt-level "s" a loop over D is not unrolled (it cost 8 instructions per input and
+    // vector).
+    let sq = |d: usize| {
+        let diff = i64::from(zs[d] - sv[d].0);
+        (diff * diff) as u64
+    };
+    let mut d2: u64 = 0;
+    if D > 0 {
+        d2 += sq(0);
+    }
+    if D > 1 {
+        d2 += sq(1);
+    }
+    for d in 2..D {
+        d2 += sq(d);
+    }
+    if (d2 >> 32) as u32 >= CUT_HI {
+        return None;
+    }
+    // Q48 → Q27, below 31·2^27 after the cut.
+    // The sum is kept negated: −k ∈ [−2^28, 0] has no known sign bit, so aᵢ·(−kᵢ) is one
+    // signed `SMLAL`; with k itself (sign bit known 0) the compiler emits the signed ×
+    // unsigned sequence, four instructions more.
+    let neg_k = -(exp_below_31((d2 >> 21) as u32) as i32);
+    Some(i64::from(a.0) * i64::from(neg_k))
+}
+
+/// Q52 → Q24 with rounding, then + b, saturating into i32.
+#[inline(always)]
+fn finish(neg_acc: i64, bias: Dph) -> Dph {
+    let sum = (-neg_acc + (1 << 27)) >> 28;
+    let sum = sum.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32;
+    Q(sum).saturating_add(bias)
+}
+
 /// Why a table has no fixed-point form.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -169,7 +232,27 @@ pub enum FixedError {
     /// The table has linear terms (`ModelSpec::linear_dph`), which the integer path does
     /// not evaluate: Eq. (10) alone is converted.
     LinearTerms,
+    /// A fixed-point form given as parts is not the conversion of its f32 table (the name of
+    /// the field that differs, or `"length"`).
+    Mismatch(&'static str),
 }
+
+impl core::fmt::Display for FixedError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            FixedError::Range(what) => write!(f, "{what} is outside its fixed-point range"),
+            FixedError::LinearTerms => f.write_str("the table has linear terms"),
+            FixedError::Mismatch(what) => {
+                write!(
+                    f,
+                    "the fixed-point {what} is not the conversion of the f32 table"
+                )
+            }
+        }
+    }
+}
+
+impl core::error::Error for FixedError {}
 
 /// A table in fixed point: N support vectors of dimension D. Built by
 /// [`FixedModel::from_table`] only, which establishes the bounds [`FixedModel::predict`]
@@ -207,7 +290,7 @@ const fn isqrt_round(v: u128) -> u128 {
 }
 
 /// √γ in Q28 from γ's f32 bits, rounded to nearest; None unless 2^−32 ≤ γ < 256.
-const fn sqrt_q28(bits: u32) -> Option<u32> {
+pub(crate) const fn sqrt_q28(bits: u32) -> Option<u32> {
     let exp = ((bits >> 23) & 0xff) as i32;
     if bits >> 31 != 0 || exp == 0xff || exp < 95 || exp >= 135 {
         return None;
@@ -226,7 +309,7 @@ const fn sqrt_q28(bits: u32) -> Option<u32> {
 
 /// A standardised value given by its f32 bits times √γ (Q28), in Q24 rounded to nearest;
 /// None for NaN/infinity or a result outside ±32.
-const fn scaled_q24(bits: u32, sqrt_gamma: u32) -> Option<i32> {
+pub(crate) const fn scaled_q24(bits: u32, sqrt_gamma: u32) -> Option<i32> {
     // value·√γ·2^24 = mant·sg·2^(e − 150 − 28 + 24) = mant·sg·2^(e − 154).
     round_scaled(bits, sqrt_gamma as u128, -154, Z_LIM as u128)
 }
@@ -281,7 +364,7 @@ impl<const N: usize, const D: usize> FixedModel<N, D> {
             i += 1;
         }
         // Σ|aᵢ|·2^24 (Q24) times kernels < 2^28 stays below 2^63.
-        if abs_sum >= 1 << 35 {
+        if abs_sum >= ABS_ALPHA_SUM_LIMIT {
             return Err(FixedError::Range("alpha_dph"));
         }
         out.bias = match conv(t.spec.bias_dph, "bias_dph") {
@@ -301,50 +384,27 @@ impl<const N: usize, const D: usize> FixedModel<N, D> {
     // five constants per vector.
     #[inline(never)]
     pub fn predict(&self, z: &[Z; D]) -> Dph {
-        let sg = i64::from(self.sqrt_gamma);
-        // |z| < 2^31 and √γ < 2^32 (Q28): the product fits an i64.
-        let zs: [i32; D] = core::array::from_fn(|d| {
-            let v = (i64::from(z[d].0) * sg + (1 << 27)) >> 28;
-            v.clamp(-i64::from(Z_LIM), i64::from(Z_LIM)) as i32
-        });
+        let zs = scale_inputs(z, self.sqrt_gamma);
         // −Σ aᵢ·kᵢ in Q52 (Q24·Q28): |Σ| ≤ Σ|aᵢ|·2^28 < 2^63 by the conversion's check.
         let mut neg_acc: i64 = 0;
         // An index loop: zipping the two arrays costs six instructions per vector at
         // opt-level "s" (the bound of the shorter one is recomputed).
         for i in 0..N {
-            let (sv, a) = (&self.support[i], self.alpha[i]);
-            // γ‖z − zᵢ‖² in Q48: differences within ±2^30, squares below 2^60, and fewer
-            // than 16 of them (`D_FITS`): no overflow. The first two inputs are written out:
-            // at the board's opt-level "s" a loop over D is not unrolled (it cost 8
-            // instructions per input and vector).
-            let sq = |d: usize| {
-                let diff = i64::from(zs[d] - sv[d].0);
-                (diff * diff) as u64
-            };
-            let mut d2: u64 = 0;
-            if D > 0 {
-                d2 += sq(0);
+            if let Some(t) = neg_term(&zs, &self.support[i], self.alpha[i]) {
+                neg_acc += t;
             }
-            if D > 1 {
-                d2 += sq(1);
-            }
-            for d in 2..D {
-                d2 += sq(d);
-            }
-            if (d2 >> 32) as u32 >= CUT_HI {
-                continue;
-            }
-            // Q48 → Q27, below 31·2^27 after the cut.
-            // The sum is kept negated: −k ∈ [−2^28, 0] has no known sign bit, so aᵢ·(−kᵢ) is
-            // one signed `SMLAL`; with k itself (sign bit known 0) the compiler emits the
-            // signed × unsigned sequence, four instructions more.
-            let neg_k = -(exp_below_31((d2 >> 21) as u32) as i32);
-            neg_acc += i64::from(a.0) * i64::from(neg_k);
         }
-        // Q52 → Q24 with rounding, then + b, saturating into i32.
-        let sum = (-neg_acc + (1 << 27)) >> 28;
-        let sum = sum.clamp(i64::from(i32::MIN), i64::from(i32::MAX)) as i32;
-        Q(sum).saturating_add(self.bias)
+        finish(neg_acc, self.bias)
+    }
+
+    /// The model as borrowed parts ([`FixedModelRef`]), as a table laid out by C code gives it.
+    pub fn as_model(&self) -> FixedModelRef<'_, D> {
+        FixedModelRef {
+            support: &self.support,
+            alpha: &self.alpha,
+            sqrt_gamma: self.sqrt_gamma,
+            bias: self.bias,
+        }
     }
 
     /// Compile-time check that D squares below 2^60 fit a u64.

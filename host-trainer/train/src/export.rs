@@ -14,6 +14,7 @@ use std::path::Path;
 
 use compensator_core::{Feature, ModelRef, ModelSpec};
 
+use crate::export_c::{c_header, CName};
 use crate::features::{self, FeatureError};
 use crate::model::{self, ModelError, ModelFile};
 
@@ -549,30 +550,59 @@ impl Format {
 }
 
 /// The C header of `m` ([`crate::export_c::c_header`]: the f32 numbers of the Rust table),
-/// after the same f32 precision check; `what` is the provenance line of its comment.
+/// after the same f32 precision check, with the default symbol prefix (`rlg_…`); `what` is the
+/// provenance line of its comment.
 pub fn c_header_source(m: &ModelFile, what: &str) -> Result<String, ExportError> {
-    use crate::export_c::c_header;
+    c_header_source_named(m, &CName::default(), what)
+}
+
+/// [`c_header_source`] with the symbol prefix `name` (`<name>_model`, `<NAME>_N`, guard
+/// `<NAME>_MODEL_TABLE_H`), so that the headers of several axes can be included together.
+pub fn c_header_source_named(
+    m: &ModelFile,
+    name: &CName,
+    what: &str,
+) -> Result<String, ExportError> {
+    fn header<const D: usize>(
+        m: &ModelFile,
+        name: &CName,
+        what: &str,
+    ) -> Result<String, ExportError> {
+        c_header(&to_f32::<D>(m)?.as_model(), name, what).map_err(ExportError::Table)
+    }
     check_precision(m)?;
     match m.lssvm.dim() {
-        1 => c_header(&to_f32::<1>(m)?, what),
-        2 => c_header(&to_f32::<2>(m)?, what),
-        3 => c_header(&to_f32::<3>(m)?, what),
-        4 => c_header(&to_f32::<4>(m)?, what),
-        5 => c_header(&to_f32::<5>(m)?, what),
+        1 => header::<1>(m, name, what),
+        2 => header::<2>(m, name, what),
+        3 => header::<3>(m, name, what),
+        4 => header::<4>(m, name, what),
+        5 => header::<5>(m, name, what),
         got => Err(ExportError::Dimension { got, want: 5 }),
     }
 }
 
-/// Writes the board table of `m` to `out` atomically, in `format`.
+/// Writes the board table of `m` to `out` atomically, in `format` (a C header with the default
+/// symbol prefix).
 pub fn write_board_table(
     m: &ModelFile,
     command: &str,
     out: &Path,
     format: Format,
 ) -> Result<(), ExportError> {
+    write_board_table_named(m, command, out, format, &CName::default())
+}
+
+/// [`write_board_table`] with the C header's symbol prefix `c_name` (ignored for Rust).
+pub fn write_board_table_named(
+    m: &ModelFile,
+    command: &str,
+    out: &Path,
+    format: Format,
+    c_name: &CName,
+) -> Result<(), ExportError> {
     let text = match format {
         Format::Rust => table_source(m, command)?,
-        Format::C => c_header_source(m, command)?,
+        Format::C => c_header_source_named(m, c_name, command)?,
     };
     model::write_atomic(out, text.as_bytes())?;
     Ok(())
@@ -702,5 +732,18 @@ mod tests {
             "{h}"
         );
         assert!(c_header_source(&model(5.0, 1e9), "t").is_err());
+        // A named header prefixes every symbol, guard and size.
+        let x = c_header_source_named(&good, &CName::new("gyro_x").unwrap(), "t").unwrap();
+        for want in [
+            "#ifndef GYRO_X_MODEL_TABLE_H",
+            "#define GYRO_X_N ",
+            "gyro_x_support[GYRO_X_N]",
+            "rlg_table gyro_x_model",
+            "rlg_fixed_table gyro_x_fixed_model",
+        ] {
+            assert!(x.contains(want), "{want}");
+        }
+        assert!(!x.contains(" rlg_support") && !x.contains("RLG_N"), "{x}");
+        assert!(h.contains("#ifndef RLG_MODEL_TABLE_H") && h.contains("rlg_table rlg_model"));
     }
 }
