@@ -11,7 +11,7 @@ use cortex_m_rt::{entry, exception, ExceptionFrame};
 use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
 use cortex_m_semihosting::hio::{self, HostStream};
 use defmt_semihosting as _;
-use firmware::sensor::TemperatureSensor; // the global defmt logger
+use firmware::sensor::{RateSensor, TemperatureSensor}; // the global defmt logger
 
 use firmware::control::ControlLoop;
 use firmware::model_table::MODEL;
@@ -161,12 +161,7 @@ fn main() -> ! {
     let Some(cp) = cortex_m::Peripherals::take() else {
         fail()
     };
-    let mut syst = cp.SYST;
-    syst.set_clock_source(SystClkSource::Core);
-    syst.set_reload(SYST_RELOAD);
-    syst.clear_current();
-    syst.enable_counter();
-
+    start_systick(cp.SYST);
     let data = match ReplayData::parse(REPLAY) {
         Ok(d) => d,
         Err(_) => {
@@ -183,7 +178,6 @@ fn main() -> ! {
         core::mem::size_of_val(&MODEL),
         count
     );
-
     let ((), cal) = timed(|| cortex_m::asm::delay(CALIBRATION_LOOPS));
     defmt::info!(
         "calibration: instructions={=u32} ticks={=u32}",
@@ -203,8 +197,35 @@ fn main() -> ! {
         &MODEL
     };
     let mut ctl = ControlLoop::new(table, SensorLimits::DEFAULT, temp, rate);
-    match ctl.table_error() {
-        None => defmt::info!("model table CRC-32 {=u32:#010x} verified", table.crc32),
+    log_table_check(ctl.table_error(), table.crc32);
+    let Ok(stderr) = hio::hstderr() else {
+        defmt::error!("semihosting stderr unavailable");
+        fail()
+    };
+    let costs = replay(&mut ctl, table, Stderr(stderr), count);
+    fixed_pass(data, table, count);
+    log_summary(&ctl, &costs, &painted);
+    if !costs.written {
+        defmt::error!("the host did not take every sample line");
+        fail()
+    }
+    loop {
+        debug::exit(EXIT_SUCCESS);
+    }
+}
+
+/// SysTick on the core clock over its full range.
+fn start_systick(mut syst: SYST) {
+    syst.set_clock_source(SystClkSource::Core);
+    syst.set_reload(SYST_RELOAD);
+    syst.clear_current();
+    syst.enable_counter();
+}
+
+/// Logs the table's boot check: the CRC verified, or why raw rates pass through.
+fn log_table_check(error: Option<TableError>, crc32: u32) {
+    match error {
+        None => defmt::info!("model table CRC-32 {=u32:#010x} verified", crc32),
         Some(TableError::Checksum { stored, computed }) => defmt::error!(
             "model table CRC-32 mismatch: stored {=u32:#010x}, computed {=u32:#010x}; raw rates pass through (TABLE_FAULT)",
             stored,
@@ -215,15 +236,34 @@ fn main() -> ! {
             e
         ),
     }
-    let Ok(stderr) = hio::hstderr() else {
-        defmt::error!("semihosting stderr unavailable");
-        fail()
-    };
-    let mut out: LineWriter<Stderr, 2000> = LineWriter::begin(Stderr(stderr), count);
+}
+
+/// What the replay measured.
+struct ReplayCosts {
+    /// SysTick ticks of each 1 Hz step.
+    step: Cost,
+    /// Ticks of the kernel sum alone with libm's exp.
+    kernel_libm: Cost,
+    /// Ticks of the kernel sum alone with the board's fast exp.
+    kernel_fast: Cost,
+    /// Largest |libm − fast| of the kernel sum, °/h.
+    fast_max_dev_dph: f32,
+    /// Whether the host took every sample line.
+    written: bool,
+}
+
+/// Runs the 1 Hz loop over the `count` replayed samples, each output line to `sink`. The
+/// kernel sum alone, per exp choice, at each sample's (clamped) temperature and the mean of
+/// the other features is timed too: what a different exp would save on each update. Measured
+/// after the step, outside its timing, so the step figures are those of the shipped path.
+fn replay<T: TemperatureSensor, R: RateSensor, const N: usize, const D: usize>(
+    ctl: &mut ControlLoop<'_, T, R, D>,
+    table: &ModelTable<N, D>,
+    sink: Stderr,
+    count: u32,
+) -> ReplayCosts {
+    let mut out: LineWriter<Stderr, 2000> = LineWriter::begin(sink, count);
     let mut cost = Cost::default();
-    // The kernel sum alone, per exp choice, at each sample's (clamped) temperature and the
-    // mean of the other features: what a different exp would save on each update. Measured
-    // after the step, outside its timing, so the step figures are those of the shipped path.
     let model = table.as_model();
     let (mut k_libm, mut k_fast) = (Cost::default(), Cost::default());
     let mut fast_dev = 0.0f32;
@@ -263,7 +303,18 @@ fn main() -> ! {
         }
     }
     let (_, written) = out.end();
+    ReplayCosts {
+        step: cost,
+        kernel_libm: k_libm,
+        kernel_fast: k_fast,
+        fast_max_dev_dph: fast_dev,
+        written,
+    }
+}
 
+/// In an `RLG_FW_FIXED` build: the temperatures replayed again through the integer
+/// evaluator, its outputs' digest and cost logged.
+fn fixed_pass<const N: usize>(data: ReplayData<'_>, table: &ModelTable<N, 2>, count: u32) {
     // Evaluated at compile time only for an `RLG_FW_FIXED` build: a table without a Q24 form
     // (large coefficients, more inputs than the fixed path takes) must still build the f32
     // image, and a const block is evaluated whether or not its branch runs.
@@ -297,7 +348,14 @@ fn main() -> ! {
             fcost.calls
         );
     }
+}
 
+/// Logs the run's summary: the status counts, the costs and the stack's high-water mark.
+fn log_summary<T: TemperatureSensor, R: RateSensor, const D: usize>(
+    ctl: &ControlLoop<'_, T, R, D>,
+    c: &ReplayCosts,
+    painted: &stack::Painted,
+) {
     let s = ctl.summary();
     defmt::info!(
         "summary: samples={=u32} ok={=u32} {=str}={=u32} {=str}={=u32} {=str}={=u32} {=str}={=u32} {=str}={=u32} {=str}={=u32} temp_sensor_errors={=u32} rate_sensor_errors={=u32}",
@@ -320,31 +378,24 @@ fn main() -> ! {
     );
     defmt::info!(
         "cost: step ticks min={=u32} mean={=u32} max={=u32} total={=u64} calls={=u32} (SysTick at the 25 MHz core clock; under -icount shift=0 one tick = 40 instructions)",
-        cost.min,
-        cost.mean(),
-        cost.max,
-        cost.total,
-        cost.calls
+        c.step.min,
+        c.step.mean(),
+        c.step.max,
+        c.step.total,
+        c.step.calls
     );
     defmt::info!(
         "kernel: libm_total={=u64} fast_total={=u64} calls={=u32} fast_max_dev_dph={=f32} (SysTick ticks of predict_standardised_dph per exp choice)",
-        k_libm.total,
-        k_fast.total,
-        k_libm.calls,
-        fast_dev
+        c.kernel_libm.total,
+        c.kernel_fast.total,
+        c.kernel_libm.calls,
+        c.fast_max_dev_dph
     );
     defmt::info!(
         "stack: high_water_bytes={=u32} (painted window {=usize} bytes)",
-        stack::high_water(&painted),
+        stack::high_water(painted),
         stack::WINDOW
     );
-    if !written {
-        defmt::error!("the host did not take every sample line");
-        fail()
-    }
-    loop {
-        debug::exit(EXIT_SUCCESS);
-    }
 }
 
 /// Set once the first panic starts, so a panic inside the logger cannot recurse.

@@ -92,7 +92,9 @@ pub enum CalibrateError {
 /// `Err(CalibrateError::$variant(format!(...)))` unless `$cond`.
 macro_rules! ensure {
     ($cond:expr, $variant:ident, $($fmt:tt)+) => {
-        if !$cond {
+        // Bound first: a NaN comparison fails the check, as it should.
+        let holds: bool = $cond;
+        if !holds {
             return Err($crate::CalibrateError::$variant(format!($($fmt)+)));
         }
     };

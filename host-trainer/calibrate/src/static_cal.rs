@@ -175,8 +175,12 @@ fn validation_for(n: usize) -> Validation {
 /// Largest number of points the static grid search solves exactly.
 pub const MAX_POINTS: usize = 4000;
 
-/// The points as the models take them: T as the one feature.
+/// The points, and as the models take them: T as the one feature.
 struct Points {
+    /// (T °C, output °/h).
+    raw: Vec<(f64, f64)>,
+    /// How they were made, in words.
+    from: String,
     names: Vec<String>,
     x: Vec<Vec<f64>>,
     y: Vec<f64>,
@@ -188,7 +192,7 @@ struct Points {
 fn checked_points(
     cal: &Recording,
     block: usize,
-) -> Result<(Vec<(f64, f64)>, String, Points), CalibrateError> {
+) -> Result<Points, CalibrateError> {
     let (points, points_from) = points_of(cal, block)?;
     let n = points.len();
     let (lo, hi) = points
@@ -208,13 +212,14 @@ fn checked_points(
         Input,
         "{n} points; a static model needs at least 5 (tuning leaves some out)"
     );
-    let p = Points {
+    Ok(Points {
         names: vec![Feature::TempC.name().to_string()],
         x: points.iter().map(|p| vec![p.0]).collect(),
         y: points.iter().map(|p| p.1).collect(),
         t: points.iter().map(|p| p.0).collect(),
-    };
-    Ok((points, points_from, p))
+        raw: points,
+        from: points_from,
+    })
 }
 
 /// σ and c of the LS-SVM with a linear trend in T ([`train_with_trend`]) by CV over the coarse
@@ -300,15 +305,23 @@ fn tune_with_trend(
     }
 }
 
+/// The board table's choice.
+struct Table {
+    point: CvPoint,
+    model: ModelFile,
+    precision: Precision,
+    /// Better-scoring points passed over: (σ, c, departure °/h).
+    refused: Vec<(f64, f64, f64)>,
+}
+
 /// The table: the CV choice, or the best-scoring grid point whose f32 evaluation meets the
 /// export limit; with the better-scoring points passed over.
-#[allow(clippy::type_complexity)]
 fn choose_table(
     p: &Points,
     tuned: &Tuned,
     opts: &StaticOptions,
     provenance: &Provenance,
-) -> Result<(CvPoint, ModelFile, Precision, Vec<(f64, f64, f64)>), CalibrateError> {
+) -> Result<Table, CalibrateError> {
     let mut order: Vec<CvPoint> = tuned
         .curve
         .iter()
@@ -353,7 +366,12 @@ fn choose_table(
         let prec = export::precision(&model)?;
         let dev = prec.deviation_dph;
         if dev <= prec.limit_dph {
-            return Ok((point, model, prec, refused));
+            return Ok(Table {
+                point,
+                model,
+                precision: prec,
+                refused,
+            });
         }
         refused.push((point.sigma, point.c, dev));
     }
@@ -380,8 +398,8 @@ pub fn calibrate_static(
         opts.budget,
         crate::MAX_BUDGET
     );
-    let (points, points_from, p) = checked_points(cal, opts.block)?;
-    let n = points.len();
+    let p = checked_points(cal, opts.block)?;
+    let n = p.raw.len();
     let validation = validation_for(n);
     let folds = match &validation {
         Validation::LeaveOneOut => (0..n).map(|i| vec![i]).collect(),
@@ -402,7 +420,12 @@ pub fn calibrate_static(
     let poly = poly_of(&p.t, &p.y, &all, poly_degree)
         .ok_or_else(|| CalibrateError::Input("the polynomial did not fit".to_string()))?;
     let poly_train: Vec<f64> = (0..n).map(|i| p.y[i] - poly.predict(p.t[i])).collect();
-    let (point, model, prec, refused) = choose_table(&p, &tuned, opts, provenance)?;
+    let Table {
+        point,
+        model,
+        precision: prec,
+        refused,
+    } = choose_table(&p, &tuned, opts, provenance)?;
 
     let (test_points, held_out_rms_dph) = match test {
         Some(r) => {
@@ -416,8 +439,8 @@ pub fn calibrate_static(
         None => (Vec::new(), None),
     };
     Ok(StaticCalibration {
-        points,
-        points_from,
+        points: p.raw,
+        points_from: p.from,
         validation: match validation {
             Validation::LeaveOneOut => "leave-one-out (fewer than 25 points)".to_string(),
             v => v.describe(),

@@ -6,11 +6,8 @@ use std::path::PathBuf;
 
 use anyhow::Context as _;
 
-use rlg_closeloop::{
-    self, augmented_features, first_cycle_end_s, train_and_score, train_and_score_on, Inputs,
-    Protocol,
-};
-use rlg_diagnose::{diagnose, DiagnoseError, Diagnosis, Options, PhysicsModel};
+use rlg_closeloop::{self, close_loop, session_text, HeldOutFrom, Protocol};
+use rlg_diagnose::Diagnosis;
 use rlg_train::model::Provenance;
 
 /// Arguments of `rlg close-loop`.
@@ -60,96 +57,38 @@ pub fn run(args: &CloseLoopArgs, command_line: &str) -> anyhow::Result<()> {
         Some(p) => Some(super::read_recording(p, &args.units)?),
         None => None,
     };
-    let end = match (&test, args.train_to_s) {
-        (Some(_), _) => rec.time_s.last().copied().unwrap_or(f64::NAN),
-        (None, Some(t)) => t,
-        (None, None) => first_cycle_end_s(&rec)?,
+    let held_out = match &test {
+        Some(t) => HeldOutFrom::Test(t),
+        None => HeldOutFrom::After(args.train_to_s),
     };
-    anyhow::ensure!(end.is_finite(), "--to-s must be finite");
-    // The diagnosis sees the training data only, so that the held-out data judge a
-    // pipeline (the feature, its parameter, the model) that never saw them.
-    let train_part = rec.head(rec.time_s.partition_point(|t| *t <= end));
-    let d = match &args.diagnosis {
+    let diagnosis = match &args.diagnosis {
         Some(p) => Some(read_diagnosis(p)?),
-        None => match diagnose(&train_part, &PhysicsModel::paper(), &Options::default()) {
-            Ok(d) => Some(d),
-            Err(e @ DiagnoseError::TooShort { .. }) => {
-                println!(
-                    "the training data cannot be diagnosed ({e}): the [T, dT/dt] model only; \
-                     give a longer --to-s or a later recording with --test"
-                );
-                None
-            }
-            Err(e) => return Err(e.into()),
-        },
+        None => None,
     };
-    let (feats, suggestions) = d
-        .as_ref()
-        .map_or_else(|| (Inputs::base(), Vec::new()), augmented_features);
-    for s in &suggestions {
-        match s.feature {
-            Some(f) => println!("{} → feature {f} ({:?}): {}", s.mechanism, s.role, s.reason),
-            None => println!("{} → no feature: {}", s.mechanism, s.reason),
-        }
-    }
-    if let (Some(d), true) = (&d, suggestions.is_empty()) {
-        println!("the diagnosis names no missing mechanism ({:?})", d.verdict);
-    }
     let protocol = Protocol {
         budget: Some(args.budget),
         ..Protocol::default()
     };
     let prov = Provenance::from_file(&args.recording, command_line)?;
-    let score = |inputs: &Inputs| match &test {
-        Some(t) => train_and_score_on(&rec, t, inputs, &protocol, &prov),
-        None => train_and_score(&rec, end, inputs, &protocol, &prov),
-    };
-    let base = score(&Inputs::base())?;
-    let aug = if feats != Inputs::base() {
-        score(&feats)?
-    } else {
-        base.clone()
-    };
-    match &args.test {
-        Some(p) => println!(
+    let s = close_loop(&rec, held_out, diagnosis, &protocol, &prov)?;
+    let split = match &args.test {
+        Some(p) => format!(
             "trained on all of {}, judged on {} (100 s stability, °/h):",
             args.recording.display(),
             p.display()
         ),
-        None => println!("trained on t ≤ {end:.0} s, held out the rest (100 s stability, °/h):"),
-    }
-    for (name, s) in [("[T, dT/dt]", &base), ("augmented", &aug)] {
-        let f = s.inputs.describe();
-        println!(
-            "  {name:<11} {:<52} σ = {:.3}, c = {:.3e}: TRAINING rms {:.3e}, CV rms {:.3e}, HELD-OUT {:.4e} (board f32: {}, max |f32 − f64| {:.1e})",
-            f.join(", "),
-            s.sigma,
-            s.c,
-            s.train_rms_dph,
-            s.cv_rms_dph,
-            s.test_b100_dph,
-            s.board_b100_dph
-                .map_or("—".to_string(), |b| format!("{b:.4e}")),
-            s.board_deviation_dph
-        );
-    }
-    let adopted = protocol.adopts(&base, &aug);
-    let chosen = if adopted { &aug } else { &base };
-    println!(
-        "  {}: held-out change of the augmented model {:+.1} % (for the record; the held-out data do not decide)",
-        if adopted {
-            "augmented model ADOPTED (cross-validated error lower)"
-        } else {
-            "augmented model NOT adopted (cross-validated error not lower); [T, dT/dt] kept"
-        },
-        100.0 * (aug.test_b100_dph / base.test_b100_dph - 1.0)
-    );
+        None => format!(
+            "trained on t ≤ {:.0} s, held out the rest (100 s stability, °/h):",
+            s.train_end_s
+        ),
+    };
+    print!("{}", session_text(&s, &split));
     if let Some(p) = &args.out_model {
-        chosen.model.write(p)?;
+        s.chosen().model.write(p)?;
         println!("wrote {}", p.display());
     }
     if let Some(p) = &args.out_table {
-        rlg_train::export::write_table(&chosen.model, command_line, p)?;
+        rlg_train::export::write_table(&s.chosen().model, command_line, p)?;
         println!("wrote {}", p.display());
     }
     Ok(())

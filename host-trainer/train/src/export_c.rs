@@ -173,11 +173,21 @@ pub fn c_header<const D: usize>(
     what: &str,
 ) -> Result<String, TableError> {
     t.validate()?;
-    let s = t.spec;
-    let n = t.support.len();
-    let (p, u) = (name.as_str(), name.upper());
     let mut o = String::new();
-    // Writing to a String cannot fail.
+    header_comment(&mut o, t, name, what);
+    spec_constants(&mut o, t, name);
+    api_table(&mut o, t, name);
+    fixed_form(&mut o, t, name);
+    let _ = writeln!(o, "#endif /* {}_MODEL_TABLE_H */", name.upper());
+    Ok(o)
+}
+
+// Writing to a String cannot fail: the `fmt::Result`s below are dropped.
+
+/// The header's comment: what the table is, Eq. (10), how the C API takes it.
+fn header_comment<const D: usize>(o: &mut String, t: &ModelRef<'_, D>, name: &CName, what: &str) {
+    let s = t.spec;
+    let p = name.as_str();
     let _ = writeln!(o, "/* @generated: LS-SVM temperature model of RLG bias (Yu et al. 2011, Eqs. 8-10) — do not edit.");
     let _ = writeln!(o, " * {what}");
     let _ = writeln!(
@@ -205,6 +215,13 @@ pub fn c_header<const D: usize>(
         " * rlg_update(&state, temp_c, gyro_dph, &out) once every {} s. */",
         s.rate_filter.dt_s
     );
+}
+
+/// The include guard, the sizes, the feature names and the spec's constants.
+fn spec_constants<const D: usize>(o: &mut String, t: &ModelRef<'_, D>, name: &CName) {
+    let s = t.spec;
+    let n = t.support.len();
+    let (p, u) = (name.as_str(), name.upper());
     let _ = writeln!(o, "#ifndef {u}_MODEL_TABLE_H");
     let _ = writeln!(o, "#define {u}_MODEL_TABLE_H");
     let _ = writeln!(o, "#include <stdint.h>");
@@ -256,6 +273,14 @@ pub fn c_header<const D: usize>(
         "static const uint32_t {p}_rate_warmup_samples = {}u;",
         r.warmup_samples
     );
+}
+
+/// The feature codes the CRC hashes, the support vectors and coefficients, the CRC and the
+/// `rlg_table` object for the C API.
+fn api_table<const D: usize>(o: &mut String, t: &ModelRef<'_, D>, name: &CName) {
+    let s = t.spec;
+    let r = &s.rate_filter;
+    let (p, u) = (name.as_str(), name.upper());
     let _ = writeln!(
         o,
         "/* Feature codes and parameters as hashed by the CRC (compensator_core::crc). */"
@@ -349,6 +374,11 @@ pub fn c_header<const D: usize>(
     );
     let _ = writeln!(o, "    &{p}_support[0][0], {p}_alpha_dph, {crc:#010x}u,");
     let _ = writeln!(o, "}};");
+}
+
+/// The fixed-point form of the table for `rlg_fixed_init`, or why there is none.
+fn fixed_form<const D: usize>(o: &mut String, t: &ModelRef<'_, D>, name: &CName) {
+    let (p, u) = (name.as_str(), name.upper());
     match fixed_parts(t) {
         Ok(FixedParts {
             sqrt_gamma_q28: sg,
@@ -391,8 +421,6 @@ pub fn c_header<const D: usize>(
             let _ = writeln!(o, "/* No fixed-point form: {e}. */");
         }
     }
-    let _ = writeln!(o, "#endif /* {u}_MODEL_TABLE_H */");
-    Ok(o)
 }
 
 #[cfg(test)]
