@@ -15,7 +15,7 @@ use super::score::delta_bic;
 use super::variance::VarianceTest;
 use super::Options;
 use rand_chacha::ChaCha8Rng;
-use rlg_eval::noise::NoiseParams;
+use rlg_simulate::noise::NoiseParams;
 
 /// The null distributions from a parametric bootstrap of the fitted gyro noise model
 /// (replicates whitened exactly as the data are and run through the same scan): of the best

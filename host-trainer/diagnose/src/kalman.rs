@@ -25,7 +25,7 @@
 //! i.e. what [`crate::noise::GlsWhitener`] gives from the dense matrix (test
 //! `kalman_whitening_equals_the_dense_cholesky`).
 
-use rlg_eval::noise::NoiseParams;
+use rlg_simulate::noise::NoiseParams;
 
 /// The state-space form of the block means' noise (independent states: diagonal transition
 /// and state noise).

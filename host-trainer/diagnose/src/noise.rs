@@ -23,8 +23,8 @@ use rand_distr::{Distribution, StandardNormal};
 use super::linalg::Basis;
 use super::reml::block_avar;
 use rlg_eval::metrics::allan::{octave_clusters, overlapping_adev};
-use rlg_eval::noise::gauss_markov_avar;
-use rlg_eval::noise::{NoiseGen, NoiseParams};
+use rlg_simulate::noise::gauss_markov_avar;
+use rlg_simulate::noise::{NoiseGen, NoiseParams};
 
 /// Largest AR order tried.
 const MAX_ORDER: usize = 3;

@@ -29,7 +29,7 @@ use super::kalman::BlockStateSpace;
 use super::linalg::{dot, Basis};
 use super::noise::{replicate_rng, simulate_block_means};
 use super::reml::{allan_check, reml_noise, AllanCheck};
-use rlg_eval::noise::NoiseParams;
+use rlg_simulate::noise::NoiseParams;
 
 /// The fixed-parameter Gaussian likelihood of block means under one noise model, with the
 /// fixed effects `cols` profiled by GLS. The Kalman whitening is linear with a gain sequence

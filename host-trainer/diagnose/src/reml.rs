@@ -34,7 +34,7 @@ use rayon::prelude::*;
 use super::kalman::BlockStateSpace;
 use super::linalg::Basis;
 use super::noise::block_mean_autocov;
-use rlg_eval::noise::NoiseParams;
+use rlg_simulate::noise::NoiseParams;
 
 /// Dense covariance (°/h)² of the means of `nb` consecutive `m`-sample blocks of gyro noise
 /// `p`: the stationary part ([`block_mean_autocov`]: white and the Gauss–Markov bank) plus
@@ -469,7 +469,7 @@ impl AllanCheck {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rlg_eval::noise::NoiseGen;
+    use rlg_simulate::noise::NoiseGen;
 
     /// The dense block-mean covariance of rate random walk against the sample covariance of
     /// many simulated walks (block means, 30 blocks of 100 samples; 2 000 walks).

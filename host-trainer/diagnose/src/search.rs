@@ -28,7 +28,7 @@ use super::variance::{output_quantum, VarianceTest, MIN_COUNT_SIGMA};
 use super::{
     CandidateScore, DiagnoseError, Diagnosis, Evidence, Figures, Finding, Options, Verdict,
 };
-use rlg_eval::noise::NoiseParams;
+use rlg_simulate::noise::NoiseParams;
 
 /// Moving average (blocks) and threshold (σ of that average under the noise model) that
 /// mark a located span of the baseline residual.

@@ -7,7 +7,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use crate::metrics::allan::FLICKER_FLOOR;
+use rlg_eval::metrics::allan::FLICKER_FLOOR;
 
 /// Noise parameters (all 0: noiseless).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
