@@ -8,7 +8,8 @@ use rayon::prelude::*;
 
 use super::candidates::Family;
 use super::linalg::dot;
-use super::noise::{replicate_rng, simulate_block_means, Whitener};
+use super::noise::replicates::{replicate_rng, simulate_block_means};
+use super::noise::whiten::Whitener;
 use super::prepare::Prepared;
 use super::scan::{Point, Scan};
 use super::score::delta_bic;

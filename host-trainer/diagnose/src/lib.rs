@@ -6,7 +6,7 @@
 //!    recorded temperature and its dT/dt (centred difference, see [`prepare`]).
 //! 2. Fit the gyro noise to the baseline residual's 100 s means by REML (white level and
 //!    bias instability; when that fails the residual's own Allan check, rate random walk
-//!    added, [`reml`], or a rate ramp beside the model where it explains the departure
+//!    added, [`noise::reml`], or a rate ramp beside the model where it explains the departure
 //!    better, `ramp.rs`) and whiten the means by the exact Cholesky factor of that model's
 //!    block-mean covariance ([`noise`]).
 //! 3. For every library term the model lacks ([`candidates::Family`]), scan its non-linear
@@ -35,15 +35,14 @@
 mod bootstrap;
 pub mod candidates;
 mod explain;
-pub mod kalman;
 pub mod linalg;
 pub mod locate;
+mod minimise;
 pub mod noise;
 pub mod plots;
 pub mod prepare;
 mod ramp;
 mod refine;
-pub mod reml;
 mod scan;
 mod score;
 mod search;
@@ -224,13 +223,13 @@ pub struct Evidence {
     /// noise) or "ar" (the AR(p) fit; recordings longer than the GLS limit).
     #[serde(default)]
     pub whitening: String,
-    /// Gyro noise fitted to the baseline residual's 100 s means (REML, `reml.rs`) for the
-    /// whitening and the bootstrap: angle random walk °/√h (the white level of the means),
-    /// bias instability °/h, rate random walk °/h/√h.
+    /// Gyro noise fitted to the baseline residual's 100 s means (REML, `noise/reml.rs`) for
+    /// the whitening and the bootstrap: angle random walk °/√h (the white level of the
+    /// means), bias instability °/h, rate random walk °/h/√h.
     pub noise_fit: [f64; 3],
     /// That noise model against the residual's own Allan deviation (None: too few blocks).
     #[serde(default)]
-    pub noise_check: Option<reml::AllanCheck>,
+    pub noise_check: Option<noise::AllanCheck>,
     /// p-value of the verdict: the smallest false-alarm probability α at which it would
     /// not be `consistent` (the smaller of the generic structure test's p-value and those of
     /// the significant candidates that count; a candidate not separable from slow noise does

@@ -25,10 +25,11 @@
 
 use rayon::prelude::*;
 
-use super::kalman::BlockStateSpace;
 use super::linalg::{dot, Basis};
-use super::noise::{replicate_rng, simulate_block_means};
-use super::reml::{allan_check, reml_noise, AllanCheck};
+use super::noise::allan_check::{allan_check, AllanCheck};
+use super::noise::kalman::BlockStateSpace;
+use super::noise::reml::reml_noise;
+use super::noise::replicates::{replicate_rng, simulate_block_means};
 use rlg_simulate::noise::NoiseParams;
 
 /// The fixed-parameter Gaussian likelihood of block means under one noise model, with the

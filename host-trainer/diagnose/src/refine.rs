@@ -6,6 +6,7 @@ use rayon::prelude::*;
 
 use super::candidates::{node_lag, Family};
 use super::linalg::{added_fit, dot, Basis};
+use super::minimise::{argmax, argmin, parabolic};
 use super::noise::Whitener;
 use super::prepare::{DriveSeries, PhysicsModel, Prepared};
 use super::scan::{Point, Scan};
@@ -14,21 +15,6 @@ use rlg_physics::Term;
 
 /// A candidate's whitened fit gain, coefficients and baseline-orthogonal columns.
 type Fit = (f64, Vec<f64>, Vec<Vec<f64>>);
-
-/// Parabolic refinement of a maximum at grid index `i` of `f(u)`; returns u.
-pub(super) fn parabolic(u: &[f64], f: &[f64], i: usize) -> f64 {
-    if i == 0 || i + 1 >= u.len() {
-        return u[i];
-    }
-    let (u0, u1, u2) = (u[i - 1], u[i], u[i + 1]);
-    let (f0, f1, f2) = (f[i - 1], f[i], f[i + 1]);
-    let den = (u1 - u0) * (f1 - f2) - (u1 - u2) * (f1 - f0);
-    if den.abs() < 1e-300 {
-        return u1;
-    }
-    let num = (u1 - u0).powi(2) * (f1 - f2) - (u1 - u2).powi(2) * (f1 - f0);
-    (u1 - 0.5 * num / den).clamp(u0, u2)
-}
 
 /// The non-linear parameter names of a family, in `nl` order.
 pub(super) fn nl_names(f: Family) -> &'static [&'static str] {
@@ -55,14 +41,6 @@ pub(super) fn amp_name(f: Family) -> Option<&'static str> {
         Family::Aging => Some("rate_dph_per_day"),
         _ => Some("amplitude_dph"),
     }
-}
-
-fn argmax(x: &[f64]) -> Option<usize> {
-    (0..x.len()).max_by(|&a, &b| x[a].total_cmp(&x[b]))
-}
-
-pub(super) fn argmin(x: &[f64]) -> Option<usize> {
-    (0..x.len()).min_by(|&a, &b| x[a].total_cmp(&x[b]))
 }
 
 /// Refines the best grid point of family `f` (parabolic interpolation of the fit gain along

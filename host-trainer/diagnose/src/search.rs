@@ -11,14 +11,16 @@ use super::candidates::{node_lag, Family};
 use super::explain::explain;
 use super::linalg::{added_fit, combine, dot, Basis};
 use super::locate::{moving_average, peak_mask, phases, spans};
-use super::noise::{
-    calibrate_bias_instability, fit_gyro_noise, replicate_rng, simulate_block_means, ArModel,
-    GlsWhitener, Whitener, GLS_MAX_BLOCKS,
-};
+use super::minimise::argmin;
+use super::noise::allan_check::{allan_check, AllanCheck};
+use super::noise::allan_fit::{calibrate_bias_instability, fit_gyro_noise};
+use super::noise::covariance::block_mean_cov;
+use super::noise::reml::reml_noise;
+use super::noise::replicates::{replicate_rng, simulate_block_means};
+use super::noise::whiten::{ArModel, GlsWhitener, Whitener, GLS_MAX_BLOCKS};
 use super::prepare::{model_drive, PhysicsModel, Prepared};
 use super::ramp::{p_under_rrw, ramp_instead_of_rrw, step_p_under_rrw};
-use super::refine::{argmin, refine};
-use super::reml::{allan_check, block_mean_cov, reml_noise, AllanCheck};
+use super::refine::refine;
 use super::scan::{generic_columns, scan, Point, Scan};
 use super::score::{
     cycle_folds, cycle_rss, delta_bic, heldout_metrics, nonlinear_of, warmup_heldout_gain, HeldOut,

@@ -5,57 +5,29 @@
 //! the IEEE Std 952 model, each free and ≥ 0, fitted together by restricted maximum
 //! likelihood (REML) on the block means with the baseline as fixed effects ([`reml_noise`]);
 //! the search fits white + B first and adds K only when that model fails the Allan check
-//! below and a rate ramp beside the model does not explain the failure better (`ramp.rs`;
-//! K takes slow effects with it: always fitted, it absorbed a D = 7 aging and a D = 6.5
-//! warm-up of the matched benchmark):
+//! (`allan_check.rs`) and a rate ramp beside the model does not explain the failure better
+//! (`ramp.rs`; K takes slow effects with it: always fitted, it absorbs strong agings and
+//! warm-ups):
 //! - white: every process faster than a block (angle random walk, angle quantisation,
 //!   heavy-tailed white noise, correlated noise of seconds) is white at 100 s; its level is
-//!   the block means' own, not the 1 Hz Allan variance's (quantisation inflates that: on a
-//!   clean recording from an independent generator the 1 Hz fit put the angle random walk at
-//!   2.2× the true white level, and a white level held there left too little for the slow
-//!   terms);
+//!   the block means' own, not the 1 Hz Allan variance's (quantisation inflates that, by
+//!   a factor of two and more on a quantised output, and a white level held there leaves
+//!   too little for the slow terms);
 //! - bias instability B: the Gauss–Markov bank over 100 … 10⁴ s;
 //! - rate random walk K: a random walk of the rate, whose block-mean covariance
-//!   ([`block_mean_cov`]) is not stationary. K is fitted on pooled means ([`pooling`]),
-//!   and the white level and B are refitted on the 100 s means with it held, so the model
-//!   keeps the level of the scale the tests use. Slow wander that is not the bank's (1/f-like
-//!   bias with correlation times of days, a drifting bias) shows here; left out, it passed as
-//!   aging, a long period or backscatter.
-//!
-//! The model is then checked against the residual's own Allan deviation ([`AllanCheck`]):
-//! the overlapping Allan variance of the baseline residual's means at 1, 2, 4, … blocks,
-//! compared with the distribution of the same statistic over 200 replicates of the fitted
-//! model (each put through the same baseline fit), which is that statistic's confidence band
-//! without an equivalent-degrees-of-freedom approximation ([`allan_check`]).
+//!   ([`block_mean_cov`](super::covariance::block_mean_cov)) is not stationary. K is fitted
+//!   on pooled means ([`pooling`]), and the white level and B are refitted on the 100 s
+//!   means with it held, so the model keeps the level of the scale the tests use. Slow
+//!   wander that is not the bank's (1/f-like bias with correlation times of days, a
+//!   drifting bias) shows here; left out, it passed as aging, a long period or backscatter.
 
-use faer::Mat;
 use rayon::prelude::*;
 
+use super::covariance::block_mean_autocov;
 use super::kalman::BlockStateSpace;
-use super::linalg::Basis;
-use super::noise::block_mean_autocov;
+use crate::linalg::Basis;
+use crate::minimise::{argmin, vertex};
 use rlg_simulate::noise::NoiseParams;
-
-/// Dense covariance (°/h)² of the means of `nb` consecutive `m`-sample blocks of gyro noise
-/// `p`: the stationary part ([`block_mean_autocov`]: white and the Gauss–Markov bank) plus
-/// rate random walk. A random walk of the rate with diffusion q = (K/60)² (°/h)²/s, started
-/// at the record's start: for blocks i ≤ j of L seconds, block i starting at aᵢ,
-/// Cov = q·(aᵢ + L/3) when i = j and q·(aᵢ + L/2) otherwise (the double integral of
-/// min(s, t) over the two blocks). Its start value is a constant the baseline's offset takes.
-pub fn block_mean_cov(p: &NoiseParams, nb: usize, m: usize, dt_s: f64) -> Mat<f64> {
-    let acov = block_mean_autocov(p, nb, m, dt_s);
-    let q = (p.rrw_dph_per_rt_h / 60.0).powi(2);
-    let l = m as f64 * dt_s;
-    Mat::from_fn(nb, nb, |i, j| {
-        let rrw = if q > 0.0 {
-            let a = i.min(j) as f64 * l;
-            q * (a + if i == j { l / 3.0 } else { l / 2.0 })
-        } else {
-            0.0
-        };
-        acov[i.abs_diff(j)] + rrw
-    })
-}
 
 /// Blocks pooled into one mean for the noise fit of `nb` blocks: enough to leave at most
 /// [`REML_FIT_BLOCKS`] means. The likelihood's cost does not ask for it (`kalman.rs`: linear
@@ -104,18 +76,6 @@ fn ratio_grid() -> Vec<Option<f64>> {
         .collect()
 }
 
-/// Vertex of the parabola through `f` at `x` − step, `x`, `x` + step of [`LOG_RATIO`]'s
-/// grid (`x` itself where `f` is not convex there).
-fn vertex(x: f64, f: [f64; 3]) -> f64 {
-    let step = LOG_RATIO.2;
-    let den = f[0] - 2.0 * f[1] + f[2];
-    if den > 0.0 {
-        x + 0.5 * step * (f[0] - f[2]) / den
-    } else {
-        x
-    }
-}
-
 /// −2ℓ of REML and the profiled white block variance s² for fixed-effect columns `cols_b`
 /// and block means `y_b` under Σ = s²·Σ₀, Σ₀ the block-mean covariance of white noise of unit
 /// block variance, the bank at B² = `b2` and rate random walk at K² = `k2` (°/h units of
@@ -152,12 +112,12 @@ fn reml_objective(
 
 /// REML fit of white level, bias instability and rate random walk to block means `y_b` with
 /// fixed-effect columns `cols_b`. Σ = s²·(I + u·S_B/t_B + v·S_K/t_K) with S_B, S_K the
-/// unit-B and unit-K covariances ([`block_mean_cov`]) and t their mean variances, so u and v
-/// are ratios to the white variance; s² is profiled out ([`reml_objective`]) and −2ℓ is
-/// minimised over (u, v) by coordinate descent on a log grid (each ratio 10⁻³ … 10^1.5 in
-/// quarter decades, or 0), then a parabolic step on each coordinate. The fit is made on means
-/// of [`pooling`] consecutive blocks (exactly the means of longer blocks). `None` when no grid
-/// point has a positive-definite Σ.
+/// unit-B and unit-K covariances ([`block_mean_cov`](super::covariance::block_mean_cov))
+/// and t their mean variances, so u and v are ratios to the white variance; s² is profiled
+/// out ([`reml_objective`]) and −2ℓ is minimised over (u, v) by coordinate descent on a log
+/// grid (each ratio 10⁻³ … 10^1.5 in quarter decades, or 0), then a parabolic step on each
+/// coordinate. The fit is made on means of [`pooling`] consecutive blocks (exactly the
+/// means of longer blocks). `None` when no grid point has a positive-definite Σ.
 pub fn reml_noise(
     cols_b: &[Vec<f64>],
     y_b: &[f64],
@@ -217,7 +177,7 @@ fn white_and_b_given_k(
         };
         let value = |x: Option<f64>| eval(x).map_or(f64::INFINITY, |e| e.0);
         let f: Vec<f64> = grid.par_iter().map(|&x| value(x)).collect();
-        let k = (0..f.len()).min_by(|&a, &b| f[a].total_cmp(&f[b]))?;
+        let k = argmin(&f)?;
         if !f[k].is_finite() {
             return None;
         }
@@ -225,6 +185,7 @@ fn white_and_b_given_k(
         if let Some(x) = lu.filter(|x| *x > lo + 1e-9 && *x < hi - 1e-9) {
             lu = Some(vertex(
                 x,
+                step,
                 [value(Some(x - step)), f[k], value(Some(x + step))],
             ));
         }
@@ -290,9 +251,7 @@ fn reml_noise_pooled(
                 }
             })
             .collect();
-        let k = (0..f.len())
-            .min_by(|&a, &b| f[a].total_cmp(&f[b]))
-            .unwrap_or(0);
+        let k = argmin(&f).unwrap_or(0);
         (grid[k], f[k])
     };
     let (mut lu, mut best) = scan(None, true);
@@ -319,6 +278,7 @@ fn reml_noise_pooled(
         }
         Some(vertex(
             x,
+            step,
             [f(Some(x - step)), f(Some(x)), f(Some(x + step))],
         ))
     };
@@ -337,172 +297,10 @@ fn reml_noise_pooled(
     })
 }
 
-/// Overlapping Allan variance of a series of block means at cluster sizes `ms` (blocks); 0
-/// where the series is shorter than two clusters.
-pub fn block_avar(x: &[f64], ms: &[usize]) -> Vec<f64> {
-    let c: Vec<f64> = std::iter::once(0.0)
-        .chain(x.iter().scan(0.0, |a, v| {
-            *a += v;
-            Some(*a)
-        }))
-        .collect();
-    ms.iter()
-        .map(|&m| {
-            if x.len() < 2 * m + 1 {
-                return 0.0;
-            }
-            let k = x.len() + 1 - 2 * m;
-            (0..k)
-                .map(|i| {
-                    let d = (c[i + 2 * m] - 2.0 * c[i + m] + c[i]) / m as f64;
-                    0.5 * d * d
-                })
-                .sum::<f64>()
-                / k as f64
-        })
-        .collect()
-}
-
-/// Cluster sizes (blocks) of the Allan check: octaves up to a fifth of the record, where
-/// the estimate still averages at least a few independent clusters.
-pub fn check_clusters(nb: usize) -> Vec<usize> {
-    (0..)
-        .map(|k| 1usize << k)
-        .take_while(|&m| 5 * m <= nb)
-        .collect()
-}
-
-/// The fitted noise model against the residual's own Allan deviation.
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct AllanCheck {
-    /// Cluster times, s.
-    pub tau_s: Vec<f64>,
-    /// Allan deviation of the baseline residual's 100 s means, °/h.
-    pub adev_dph: Vec<f64>,
-    /// Median of the same statistic over the bootstrap replicates of the fitted model, °/h.
-    pub model_dph: Vec<f64>,
-    /// Its 2.5 % and 97.5 % quantiles over the replicates (the 95 % band), °/h.
-    pub band_lo_dph: Vec<f64>,
-    /// See `band_lo_dph`.
-    pub band_hi_dph: Vec<f64>,
-    /// Largest standardised departure over the cluster sizes, |ln AVAR − mean|/sd with the
-    /// replicates' mean and sd of ln AVAR at each size.
-    pub statistic: f64,
-    /// Share of replicates whose own largest departure is at least as large: the p-value of
-    /// the model given the residual's Allan variance (every cluster size at once).
-    pub p_value: f64,
-}
-
-/// Checks `gyro` against the baseline residual's block means `resid_b` (blocks of `block_s`
-/// seconds): 200 replicates of the model's block means, each through the same baseline fit
-/// (`residual`), give the band of the Allan variance at [`check_clusters`].
-pub fn allan_check(
-    gyro: &NoiseParams,
-    resid_b: &[f64],
-    block_s: f64,
-    residual: impl Fn(&[f64]) -> Vec<f64> + Sync,
-    seed: u64,
-) -> Option<AllanCheck> {
-    use super::noise::{replicate_rng, simulate_block_means};
-    let nb = resid_b.len();
-    let ms = check_clusters(nb);
-    let reps: Vec<Vec<f64>> = (0..200u64)
-        .into_par_iter()
-        .map(|k| {
-            let mut rng = replicate_rng(seed ^ 0xa11a, k);
-            let x = simulate_block_means(gyro, nb, block_s, &mut rng, seed ^ 0xa11a ^ (k + 1));
-            block_avar(&residual(&x), &ms)
-        })
-        .collect();
-    AllanCheck::new(&block_avar(resid_b, &ms), &reps, &ms, block_s)
-}
-
-/// Significance below which the fitted noise model is declared not to describe the residual.
-pub const ALLAN_CHECK_ALPHA: f64 = 0.01;
-
-impl AllanCheck {
-    /// Compares the residual's block-mean Allan variance `data` (at `ms`, blocks of
-    /// `block_s`) with the replicates' `reps` (each the same statistic of one replicate).
-    pub fn new(data: &[f64], reps: &[Vec<f64>], ms: &[usize], block_s: f64) -> Option<Self> {
-        if ms.is_empty() || reps.len() < 20 || data.iter().any(|v| v.is_nan() || *v <= 0.0) {
-            return None;
-        }
-        let k = ms.len();
-        let ln = |v: f64| v.max(1e-300).ln();
-        let (mut mean, mut sd) = (vec![0.0; k], vec![0.0; k]);
-        for j in 0..k {
-            let col: Vec<f64> = reps.iter().map(|r| ln(r[j])).collect();
-            let m = col.iter().sum::<f64>() / col.len() as f64;
-            let v = col.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (col.len() - 1) as f64;
-            mean[j] = m;
-            sd[j] = v.sqrt().max(1e-12);
-        }
-        let stat = |a: &[f64]| {
-            (0..k)
-                .map(|j| (ln(a[j]) - mean[j]).abs() / sd[j])
-                .fold(0.0, f64::max)
-        };
-        let s = stat(data);
-        let exceed = reps.iter().filter(|r| stat(r) >= s).count();
-        let quant = |j: usize, q: f64| {
-            let mut col: Vec<f64> = reps.iter().map(|r| r[j]).collect();
-            col.sort_by(f64::total_cmp);
-            col[((q * col.len() as f64) as usize).min(col.len() - 1)].sqrt()
-        };
-        Some(Self {
-            tau_s: ms.iter().map(|&m| m as f64 * block_s).collect(),
-            adev_dph: data.iter().map(|v| v.sqrt()).collect(),
-            model_dph: (0..k).map(|j| quant(j, 0.5)).collect(),
-            band_lo_dph: (0..k).map(|j| quant(j, 0.025)).collect(),
-            band_hi_dph: (0..k).map(|j| quant(j, 0.975)).collect(),
-            statistic: s,
-            p_value: (1 + exceed) as f64 / (1 + reps.len()) as f64,
-        })
-    }
-
-    /// Whether the model describes the residual at [`ALLAN_CHECK_ALPHA`].
-    pub fn fits(&self) -> bool {
-        self.p_value >= ALLAN_CHECK_ALPHA
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use rlg_simulate::noise::NoiseGen;
-
-    /// The dense block-mean covariance of rate random walk against the sample covariance of
-    /// many simulated walks (block means, 30 blocks of 100 samples; 2 000 walks).
-    #[test]
-    fn rrw_block_covariance_matches_simulation() {
-        let p = NoiseParams {
-            rrw_dph_per_rt_h: 1e-3,
-            ..Default::default()
-        };
-        let (nb, m) = (30usize, 100usize);
-        let c = block_mean_cov(&p, nb, m, 1.0);
-        let reps = 2000u64;
-        let mut acc = [0.0; 3];
-        let pairs = [(0usize, 0usize), (10, 20), (29, 29)];
-        for r in 0..reps {
-            let mut g = NoiseGen::new(&p, 500 + r);
-            let x: Vec<f64> = (0..nb * m).map(|_| g.step(1.0, 1.0)).collect();
-            let b = rlg_eval::metrics::block_means(&x, m);
-            for (a, (i, j)) in acc.iter_mut().zip(pairs) {
-                *a += b[i] * b[j] / reps as f64;
-            }
-        }
-        for (a, (i, j)) in acc.iter().zip(pairs) {
-            let rel = a / c[(i, j)] - 1.0;
-            // Block 0's variance is small (a third of a block of walk), the others' are
-            // dominated by the walk's accumulated level; 2 000 replicates give ≈ 3–7 %.
-            assert!(
-                rel.abs() < 0.15,
-                "({i},{j}): simulated {a} vs {}",
-                c[(i, j)]
-            );
-        }
-    }
 
     /// REML recovers white level, B and K of simulated noise seen through an offset and a
     /// trend (eight 20 h records, the walk's Allan deviation at 10⁴ s 1.7× the bank's
@@ -543,32 +341,5 @@ mod tests {
         assert!((gb - 1.0).abs() < 0.2, "B {gb}");
         assert!((0.5..2.0).contains(&gk), "K {gk}");
         assert!(rk.iter().filter(|k| **k > 0.0).count() >= 6, "K {rk:?}");
-    }
-
-    /// On white block means the check passes; on block means with a strong random walk that
-    /// a white model was fitted to, it fails.
-    #[test]
-    fn allan_check_flags_a_wrong_model() {
-        use rand::SeedableRng;
-        use rand_distr::{Distribution, StandardNormal};
-        let nb = 800;
-        let ms = check_clusters(nb);
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
-        let mut white = |n: usize| -> Vec<f64> {
-            (0..n)
-                .map(|_| <StandardNormal as Distribution<f64>>::sample(&StandardNormal, &mut rng))
-                .collect()
-        };
-        let reps: Vec<Vec<f64>> = (0..200).map(|_| block_avar(&white(nb), &ms)).collect();
-        let ok = AllanCheck::new(&block_avar(&white(nb), &ms), &reps, &ms, 100.0).expect("check");
-        assert!(ok.fits(), "{ok:?}");
-        let mut walk = white(nb);
-        let mut level = 0.0;
-        for v in &mut walk {
-            level += 0.3 * *v;
-            *v += level;
-        }
-        let bad = AllanCheck::new(&block_avar(&walk, &ms), &reps, &ms, 100.0).expect("check");
-        assert!(!bad.fits(), "{bad:?}");
     }
 }
