@@ -9,9 +9,8 @@ use rayon::prelude::*;
 use super::candidates::Family;
 use super::linalg::dot;
 use super::noise::replicates::{replicate_rng, simulate_block_means};
-use super::noise::whiten::Whitener;
 use super::prepare::Prepared;
-use super::scan::{Point, Scan};
+use super::scan::Scanned;
 use super::score::delta_bic;
 use super::variance::VarianceTest;
 use super::Options;
@@ -30,16 +29,14 @@ use rlg_simulate::noise::NoiseParams;
 /// 3–5 but raised false alarms from 8 % to 12 % with the Allan-fitted noise (27 % vs 30 % and
 /// 6 % vs 4 % with the REML fit): the family-wise share puts the false alarms where noise
 /// misfit matters most.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn bootstrap(
-    ar: &Whitener,
+    scanned: &Scanned<'_>,
     gyro: &NoiseParams,
-    s: &Scan,
-    points: &[Point],
     var: Option<&VarianceTest>,
     prep: &Prepared,
     opts: &Options,
 ) -> Nulls {
+    let (ar, s, points) = (scanned.whitener, scanned.scan, scanned.points);
     // The replicates' series first (each with its generator, which the variance test's
     // replicate continues), then whitened together (batched triangular solves).
     let sims: Vec<(Vec<f64>, ChaCha8Rng)> = (0..opts.bootstrap.max(1))

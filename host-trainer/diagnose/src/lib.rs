@@ -32,6 +32,7 @@
 //!
 //! The diagnosis reads only the recording and the model, never a truth sidecar.
 
+mod baseline;
 mod bootstrap;
 pub mod candidates;
 mod explain;
