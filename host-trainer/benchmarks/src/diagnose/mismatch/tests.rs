@@ -3,7 +3,7 @@
 use super::detect::Metric;
 use super::gen::DT_S;
 use super::hidden::{hetero_d, mean_effect};
-use super::noise::NoiseDraw;
+use super::noise::{log_spaced, NoiseDraw};
 use super::*;
 use crate::diagnose::{Label, PValues};
 use rlg_diagnose::prepare::prepare;
@@ -64,9 +64,7 @@ fn noise_has_the_covariance_of_its_draw() {
         student_t: false,
         bias_instability_dph: 5e-4,
         one_over_f: true,
-        gm_tau_s: (0..16)
-            .map(|k| 50.0 * 10f64.powf(4.0 * f64::from(k) / 15.0))
-            .collect(),
+        gm_tau_s: log_spaced(50.0, 4.0, 16),
         gm_sigma_dph: 0.0,
         rrw_dph_per_rt_h: 5e-4,
         quantum_arcsec: 0.3,
