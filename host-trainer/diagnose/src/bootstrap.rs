@@ -24,11 +24,10 @@ use rlg_simulate::noise::NoiseParams;
 ///
 /// One threshold for all families, not one per family (each family's null put on a common
 /// scale by its exponential tail, the same overall α, so that a one-parameter aging drift
-/// would not need the evidence of the periodic scan over hundreds of frequencies): measured on
-/// the benchmark's seed 2, per-family thresholds found 45 % instead of 43 % at detectability
-/// 3–5 but raised false alarms from 8 % to 12 % with the Allan-fitted noise (27 % vs 30 % and
-/// 6 % vs 4 % with the REML fit): the family-wise share puts the false alarms where noise
-/// misfit matters most.
+/// would not need the evidence of the periodic scan over hundreds of frequencies):
+/// per-family thresholds gain little detection at moderate detectability and raise the
+/// false alarms, because a family-wise share puts them where noise misfit matters most (the
+/// slow families, whose own scans are short).
 pub(super) fn bootstrap(
     scanned: &Scanned<'_>,
     gyro: &NoiseParams,
@@ -145,10 +144,10 @@ impl Nulls {
     ///
     /// The replicates' p-values are their ranks among record and replicates: a replicate's
     /// rank among the replicates alone is one less where the record is more extreme. Ranks
-    /// among the replicates alone made the adjusted p-value one step of 1/(B + 1) too large
-    /// (in the record's own test the replicate just past it counted) and counted every tie
-    /// between the two tests: half the false alarms at α = 1 % with B = 400 under an exact
-    /// null (test `either_p_is_exact_under_an_exchangeable_null`). The structure test enters
+    /// among the replicates alone would make the adjusted p-value one step of 1/(B + 1) too
+    /// large (in the record's own test the replicate just past it would count) and count
+    /// every tie between the two tests, which halves the false alarms under an exact null
+    /// (test `either_p_is_exact_under_an_exchangeable_null`). The structure test enters
     /// as it is in the replicates (without the second null under rate random walk that can
     /// raise a record's p-value); a raised `p` is placed among the ranks as it is.
     pub(super) fn either_p(&self, p: f64, test: Test, p_other: f64) -> f64 {
@@ -288,8 +287,8 @@ mod tests {
     /// records whose smaller adjusted p-value is at most α is α, for independent and for
     /// correlated tests; and a ΔBIC below a test's threshold is exactly an adjusted p-value
     /// at most α. Ranks among the replicates alone (the replicate just past the record
-    /// counted in its own test, ties between the tests counted) gave 55 of the 100 expected
-    /// here at 1 % (independent tests).
+    /// counted in its own test, ties between the tests counted) give about half the
+    /// expected share here.
     #[test]
     fn either_p_is_exact_under_an_exchangeable_null() {
         let (trials, b) = (10_000, 400);

@@ -346,7 +346,7 @@ impl Family {
                 // assumption too): the lag starts from dT/dt = 0, not from the first sample's
                 // one-sided difference, which already sees the self-heating rise. Started
                 // there, a 2 400 s lag misses the simulator's effect by 40 % (RMS) and its
-                // fitted τ is 35 % short even with no noise (measured).
+                // fitted τ is 35 % short even with no noise.
                 let mut rate = d.dtemp_c_per_s.clone();
                 if let Some(r0) = rate.first_mut() {
                     *r0 = 0.0;
@@ -408,8 +408,8 @@ fn stepped_blocks(term: &Term, prep: &Prepared, rest_start: bool) -> Vec<f64> {
 /// node's lag over 40, at most a block. Such a node moves by at most τ·dT/dt over a lag, so
 /// at τ/40 a mode hop's switching moves by at most a fortieth of a lag and a block mean by at
 /// most that share of its step (a ripple or a play by far less); stepped at every sample, the
-/// scan's eight lagged copies of the three families cost 140 s more on a month at 1 Hz
-/// (measured, 192 s against 52 s). The refinement and every check after the scan step the
+/// scan's eight lagged copies of the three families take about four times as long on a
+/// month at 1 Hz. The refinement and every check after the scan step the
 /// term at every sample (`Family::columns`).
 fn node_stride(term: &Term, prep: &Prepared) -> usize {
     let lag = match term {
@@ -528,7 +528,7 @@ impl WithPhase for Term {
 /// reverse) is the library's function of a temperature τ·dT/dt away from the reading, 13–67 °C
 /// at 1 °C/min for τ 800–4 000 s: scanned at the sensor's temperature alone, a mode hop's
 /// switching then looks tens of degrees wide and a ripple is smeared between heating and
-/// cooling (measured: top-1 30–40 % at D ≥ 6 against 87–97 % on the sensor's node). Octaves
+/// cooling, and even a strong effect is named far less often than on the sensor's node. Octaves
 /// from 400 s: the coarsest grid that recovered most of that loss at 2.5× the scan's cost; the
 /// best point's lag is then refined (`super::refine`).
 pub(crate) const NODE_LAGS_S: [f64; 8] = [

@@ -364,7 +364,7 @@ pub fn case_runs(
 
 /// The noise seeds of case `id`'s runs: their own ChaCha8 stream of the master seed, apart
 /// from the stream its draw uses. (Seeds computed as `seed + id` would give case k of seed S
-/// the noise of case k + 1 of seed S − 1, so a design seed would see the reported seed's
+/// the noise of case k + 1 of seed S − 1, so runs at adjacent master seeds would share
 /// noise sequences.) Each seed drawn is cut to 53 bits: the truth sidecar carries it, and
 /// read back through TOML (integers are i64) or by a reader that holds JSON numbers as
 /// doubles, a larger one would not be the same integer.

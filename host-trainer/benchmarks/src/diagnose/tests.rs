@@ -210,9 +210,9 @@ fn cut_start_moves_where_the_blocks_start() {
 }
 
 /// The quick benchmark end to end (release only: `cargo test --release -p rlg-benchmarks
-/// --lib quick_benchmark -- --ignored`, run by the test command). Regression floors below
-/// what it measures at seed 1 and α 2 % (18 of 20 hidden terms named, 1 of 8 false alarms):
-/// at least 15 named and at most 2 false alarms.
+/// --lib quick_benchmark -- --ignored`, run by the test command). Regression floors a few
+/// cases below what the quick run reaches at α 2 %: at least 15 of the 20 hidden terms
+/// named and at most 2 of the 8 clean recordings flagged.
 #[test]
 #[ignore = "release-mode benchmark"]
 fn quick_benchmark() {

@@ -45,8 +45,8 @@ pub fn fit_gyro_noise(r: &[f64], dt_s: f64) -> NoiseParams {
     let mut best: Option<(f64, [f64; 3])> = None;
     // Rate random walk is left out of the fit (subsets of the first two terms only): over a
     // record of hours it is confounded with the bank's slowest processes and with model
-    // misfit, and a spurious K (fitted 3e-4 … 6e-4 °/h/√h on recordings simulated with 0 or
-    // 5e-5) made the bootstrap's drifts swamp every real effect.
+    // misfit, and a spurious K (several times the true one, or where there is none) makes
+    // the bootstrap's drifts swamp every real effect.
     for mask in 1u8..4 {
         let idx: Vec<usize> = (0..3).filter(|k| mask & (1 << k) != 0).collect();
         let cols: Vec<Vec<f64>> = idx
@@ -81,8 +81,8 @@ pub fn fit_gyro_noise(r: &[f64], dt_s: f64) -> NoiseParams {
 /// Re-scales the bias instability of `p` so that the bootstrap's noise, after the same
 /// baseline fit as the data (`residual`), has the data's residual Allan variance at 200 …
 /// 1600 s (`resid_b`, the baseline residual's block means). The baseline fit absorbs part of
-/// the slow wander, so the Allan fit on the residual alone underestimates B (by ≈ 25 % on
-/// simulated no-effect recordings), which let slow noise pass as aging, periodic or
+/// the slow wander, so the Allan fit on the residual alone underestimates B (by about a
+/// quarter on no-effect recordings), which lets slow noise pass as aging, periodic or
 /// unexplained structure. B² is fitted by least squares over the four cluster sizes from 24
 /// simulated replicates of each part; the factor on B² is limited to 1/4 … 16.
 pub fn calibrate_bias_instability(

@@ -17,7 +17,7 @@ use rlg_io::recording::Recording;
 pub const BLOCK_S: f64 = 100.0;
 
 /// Most samples a diagnosis takes (46 days at 1 Hz): its per-sample series then stay within
-/// about 1.2 GB (measured at 45 days; 30 days take 0.8 GB).
+/// about 1.2 GB (0.8 GB at 30 days).
 pub const MAX_SAMPLES: usize = 4_000_000;
 
 /// Minimum number of 100 s blocks for a diagnosis (about 5.5 h).

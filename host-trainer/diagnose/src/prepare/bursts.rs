@@ -34,10 +34,11 @@ impl Bursts {
 /// The runs of a record sampled in bursts, or `None` for a record sampled throughout (gaps
 /// and all). Runs are split at steps over [`BURST_GAP`] times the median step (not the
 /// reader's 1.5: a logger's time stamps jitter within a burst, and a burst split in two would
-/// be two means a fraction of a second apart). A record is taken as burst-sampled when it has at least [`MIN_BLOCKS`] runs, its median
-/// run lasts under half a block ([`BLOCK_S`]) and runs start at least twice their length
-/// apart: in 100 s blocks of consecutive samples each block would then span many bursts
-/// and hours (a day of 5 s bursts at 1 Hz every 2 min gave 38 blocks, too few to diagnose).
+/// be two means a fraction of a second apart). A record is taken as burst-sampled when it
+/// has at least [`MIN_BLOCKS`] runs, its median run lasts under half a block ([`BLOCK_S`])
+/// and runs start at least twice their length apart: in 100 s blocks of consecutive samples
+/// each block would then span many bursts and hours (a day of 5 s bursts at 1 Hz every
+/// 2 min gives 38 blocks, too few to diagnose).
 /// A record with dropouts has runs of hours and stays as it is.
 pub fn find_bursts(time_s: &[f64]) -> Option<(Vec<std::ops::Range<usize>>, Bursts)> {
     let n = time_s.len();

@@ -31,9 +31,9 @@ impl DriveSeries {
     /// ([`local_slope`]), not the ±30 s centred difference: τ amplifies the derivative's
     /// noise, and with 0.01 °C readings the difference of a quantised staircase put
     /// τ·7e-5 °C/s (0.03 °C at τ = 400 s) into T_c and four times that into dT_c/dt. That
-    /// regressor noise pulls the fitted lag low, most where it is longest (measured at ten
-    /// times the benchmark's detectability: −3 % on average, down to −14 %; +1 % without
-    /// quantisation). The slope's noise is 6× lower.
+    /// regressor noise pulls the fitted lag low, most where it is longest (by several percent
+    /// at high signal-to-noise, where without quantisation the fit is unbiased). The slope's
+    /// noise is 6× lower.
     pub fn unlagged(&self, tau_s: f64, dt_s: f64) -> Result<DriveSeries, DiagnoseError> {
         let slope = local_slope(&self.temp_c, &self.t_s, dt_s, UNLAG_HALF_WIDTH_S);
         let temp: Vec<f64> = self

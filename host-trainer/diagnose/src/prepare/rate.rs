@@ -128,8 +128,8 @@ mod tests {
 
     /// Next to a gap the slope and dT/dt come from the samples on the same side only: on a
     /// ramp that reverses during a 30 min gap, every estimate is the ramp's own slope, where a
-    /// window across the gap took the chord over what the gap hides (0 here) or, for the
-    /// slope, divided the jump by the samples' count.
+    /// window across the gap would take the chord over what the gap hides (0 here) or, for
+    /// the slope, divide the jump by the samples' count.
     #[test]
     fn slopes_and_rates_never_span_a_gap() {
         // 1 °C/min up for 1 000 s, a gap of 1 800 s, then 1 °C/min down.

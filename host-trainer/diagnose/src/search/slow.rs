@@ -23,7 +23,7 @@ pub(super) const SLOW_PERIOD_OF_RECORD: f64 = 1.0 / 8.0;
 /// period of at least [`SLOW_PERIOD_OF_RECORD`] of the record. Such a finding under white
 /// noise and bias instability must also be significant under the record's noise refitted
 /// with rate random walk ([`crate::ramp::p_under_rrw`]; see the module doc). Without it,
-/// slow wander on clean records was flagged as aging or a long period at every α. Warm-up
+/// slow wander on clean records is flagged as aging or a long period at every α. Warm-up
 /// is among them because, left out, it takes the place of an aging that fails the check
 /// (the start of a drift fits a decay from power-on).
 pub(super) fn slow_time_only(f: Family, nl: &[f64], record_s: f64) -> bool {

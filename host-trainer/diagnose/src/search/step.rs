@@ -112,9 +112,9 @@ impl StepScan {
 /// record's statistic is less probable under `f` (share of `f`'s replicates at least as
 /// favourable to the step) than under the step (share of the step's replicates at least as
 /// favourable to `f`). Unlike the lower ΔBIC alone, this counts the search over the step's
-/// time; like it, it takes a simulated aging of 0.01 °/h/day on 31 h whose best step was 0.8
-/// lower (0.21 against 0.33: the two are close there). A one-sided test of `f` at α is not
-/// enough: it keeps clear steps as aging. Warm-up is not put to it: an early step is what
+/// time; like it, it can take a real aging whose best step fits slightly better (the two
+/// shares are then close). A one-sided test of `f` at α is not enough: it keeps clear steps
+/// as aging. Warm-up is not put to it: an early step is what
 /// its decay from power-on looks like, and the step would take real warm-ups. The step
 /// columns are made once per pass, in `cached`.
 pub(super) fn step_instead(

@@ -38,9 +38,8 @@ pub(super) struct CountVariance {
 /// their variance: tr((I − H)R)/(n − 2) with R = tridiag(−½, 1, −½), u₀ᵀRu₀ = 1/n and
 /// u₁ᵀRu₁ = 3/n for the orthonormal constant and slope, so (n − 4/n)/(n − 2). White noise's
 /// is 1; the count's part of a block of 100 samples reads 2 % high, of a dozen sums 18 %,
-/// which, taken for noise, biased a fitted noise scale of 1 to 0.95 on sums (0.97 on
-/// samples; with the factor 1.00 and 0.99, tests `noise_scale_on_summed_counts_is_found`,
-/// `noise_scale_on_counts_is_found`).
+/// which, taken for noise, biases a fitted noise scale low (tests
+/// `noise_scale_on_summed_counts_is_found`, `noise_scale_on_counts_is_found`).
 fn count_line_factor(n: usize) -> f64 {
     let n = n.max(3) as f64;
     (n - 4.0 / n) / (n - 2.0)
@@ -69,12 +68,11 @@ pub(super) fn count_variance(x: f64, s: f64) -> f64 {
 
 /// The smallest noise, in counts, of the values (samples, or sums of them where the noise is
 /// a small fraction of a count: [`summed_samples`]) on which the test runs on an undithered
-/// count. Below it the noise's own share of the values' variance is under a fifth (s² against the
-/// fraction's ≈ 1/6), so a noise scale moves the log-variance by under a fifth of what it
-/// does on a continuous output, and what moves it most is the count model's detail: the
-/// rate's own drift within a block, a spike. Two records with counts 8 and 16 times their
-/// noise (σ 0.06 and 0.08 counts; a clean one of the mismatched reported seed, a periodic
-/// one of a design seed) were called a noise scale with the test run there.
+/// count. Below it the noise's own share of the values' variance is under a fifth (s²
+/// against the fraction's ≈ 1/6), so a noise scale moves the log-variance by under a fifth
+/// of what it does on a continuous output, and what moves it most is the count model's
+/// detail: the rate's own drift within a block, a spike. Run on counts many times their
+/// noise, the test calls a noise scale where there is none.
 pub const MIN_COUNT_SIGMA: f64 = 0.2;
 
 impl CountVariance {
@@ -134,10 +132,9 @@ impl CountVariance {
 /// of counts per sample), °/h, when the noise does not dither it; `None` for a continuous
 /// output or a well-dithered count. Undithered, the variance of the samples depends on where
 /// the true rate falls between counts, which moves with the bias and so with temperature: a
-/// noise scale in T that no gyro noise causes (on simulated clean recordings with 0.1″
-/// counts the noise-scale test found one in 3 of 3), which the test then takes out
-/// (`CountVariance`). The modulation falls as
-/// exp(−2π²σ²/q²) with σ the per-sample noise: below 1 % for σ ≥ q/2. σ is read from sums
+/// noise scale in T that no gyro noise causes (left in, it makes the test find one on clean
+/// recordings with 0.1″ counts), which the test then takes out (`CountVariance`). The
+/// modulation falls as exp(−2π²σ²/q²) with σ the per-sample noise: below 1 % for σ ≥ q/2. σ is read from sums
 /// of 10 samples, whose quantisation error is bounded (a count at each end, variance q²/6)
 /// while the noise's variance grows tenfold.
 pub fn output_quantum(rate_dph: &[f64]) -> Option<f64> {
@@ -177,13 +174,12 @@ const SUMMED_COUNT_SIGMA: f64 = 0.4;
 /// Each block's variance is that of its disjoint sums about their line, averaged over the k
 /// ways of cutting the block: of one dozen sums, a block where the rate sits near a whole
 /// count has all equal (no log-variance) often enough to stop the test; moving sums, whose
-/// line takes more of the noise's part than of the count's, biased k low (0.85 for 1).
-/// Under a fifth of a count the samples' variance is nearly all where the rate falls between
-/// counts and the test is not run (`MIN_COUNT_SIGMA`); summed, a count of 0.1 counts' noise
-/// (a 0.16″ quantum at the paper's noise) holds a noise scale the samples do not show: of the
-/// mismatched benchmark's noise scales on counts with noise under 0.2 counts, none had the
-/// test run; summed, 3 of 3 are found on design seed 1, 1 of 1 on design seed 3 and 4 of 6
-/// on the reported seed 2.
+/// line takes more of the noise's part than of the count's, bias k low. Under a fifth of a
+/// count the samples' variance is nearly all where the rate falls between counts and the
+/// test is not run (`MIN_COUNT_SIGMA`); summed, a count of 0.1 counts' noise (a 0.16″
+/// quantum at the paper's noise) holds a noise scale the samples do not show: unsummed, the
+/// test would not run on such records at all; summed, it finds most noise scales hidden in
+/// them.
 pub(super) fn summed_samples(s: f64, m: usize) -> usize {
     let k = if s > 0.0 {
         (SUMMED_COUNT_SIGMA / s).powi(2).ceil() as usize

@@ -100,9 +100,9 @@ const DETREND_DEGREES: [usize; 4] = [1, 3, 5, 7];
 /// [`DETREND_DEGREES`] beyond which the blocks show no more curvature than white noise does.
 /// A gyro whose bias moves by tens of °/h per °C (a MEMS part, a poorly compensated readout)
 /// curves within 100 s where the temperature's ramp bends, by far more than its 1 s noise,
-/// and only there: about a straight line that curvature is a noise scale in temperature
-/// (a clean simulated record of 100 °/h per °C, 1 °C/min ramps with 300 s corners: ΔBIC −413,
-/// p 0.002; about a cubic, none). Each step from d to d + 2 is an F test per block of the two
+/// and only there: about a straight line that curvature is a noise scale in temperature (a
+/// clean record of 100 °/h per °C with 1 °C/min ramps and 300 s corners shows a strong one
+/// about lines and none about cubics). Each step from d to d + 2 is an F test per block of the two
 /// further coefficients (numerator of 2 degrees of freedom, whose 1 % point is closed-form);
 /// the degree rises while more blocks pass it at 1 % than a binomial share of 1 % plus three
 /// standard deviations. On white or slowly wandering noise it stays 1.

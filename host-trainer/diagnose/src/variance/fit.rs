@@ -162,8 +162,8 @@ impl VarianceTest {
             .map(|a| k + se_lin * 0.25 * f64::from(a))
             .collect();
         // The reference minimised exactly at each k: on the grids alone the profile is too
-        // high away from k̂ and the interval too narrow (measured: truth within 1σ in 7 of 18
-        // benchmark cases).
+        // high away from k̂ and the interval too narrow (the truth falls within 1σ far less
+        // often than 68 %).
         let prof: Vec<f64> = ks.iter().map(|kk| self.best_ref(*kk, &refs)).collect();
         let inside: Vec<f64> = ks
             .iter()

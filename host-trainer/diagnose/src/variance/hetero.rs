@@ -62,9 +62,9 @@ impl VarianceTest {
     /// The test on a prepared recording; None when a block has no variance (a constant or
     /// too coarsely quantised rate; on a count summed, a block whose sums are all equal),
     /// where a log-variance is undefined, or when the rate is an undithered count whose
-    /// noise, summed where it helps, is under [`MIN_COUNT_SIGMA`] counts. Measured on the
-    /// mismatched reported seed: a 0.16″ count of 0.1 counts' noise, summed by 7, had 5 of
-    /// its 1141 blocks without variance, and the test did not run.
+    /// noise, summed where it helps, is under [`MIN_COUNT_SIGMA`] counts. A coarse count with
+    /// little noise can leave a few blocks whose sums are all equal, even summed, and the
+    /// test then does not run.
     pub fn new(prep: &Prepared) -> Option<Self> {
         Self::from_samples(&prep.rate_dph, prep.block, prep.temp_b.clone())
     }
@@ -107,8 +107,8 @@ impl VarianceTest {
     fn of_samples(rate: &[f64], m: usize, temp: Vec<f64>, counted: Option<f64>) -> Option<Self> {
         // Only on a continuous output: on counts, even ones the noise dithers (σ half a
         // count), the mean of |e|^½ follows where the block's mean rate falls between counts
-        // far more than the variance does (a t₃ record with 0.02″ counts and no noise scale,
-        // hiding a ripple, gave a noise scale at ΔBIC −687 in its place).
+        // far more than the variance does (on a heavy-tailed record of counts with no noise
+        // scale it finds a strong one).
         let degree = detrend_degree(rate, m);
         let det = (degree > 1).then(|| Detrend::new(m, degree));
         let residuals = |c: &[f64]| {

@@ -19,10 +19,9 @@ pub(super) fn heavy_tailed(rate: &[f64], m: usize, residuals: impl Fn(&[f64]) ->
 
 /// The block log-scale on heavy-tailed noise: 4·ln of the mean of |e|^½ (twice the log of
 /// a scale, as ln v is). On Student-t noise of 3 degrees of freedom, whose fourth moment is
-/// infinite, the sample variance's log scatters so widely that the test found none of the 5
-/// noise scales hidden in such mismatched benchmark cases with a continuous output
-/// (detectability 3.3–8.6, design seeds 1 and 3; with the ½ power 5 of 5); the ½ power
-/// keeps 46 % of the Gaussian log-variance's information on t₃ (69 % on Gaussian noise,
+/// infinite, the sample variance's log scatters so widely that the test misses even strong
+/// noise scales on such noise, which the ½ power finds; the ½ power keeps 46 % of the
+/// Gaussian log-variance's information on t₃ (69 % on Gaussian noise,
 /// where the variance is kept). Continuous outputs only (see `from_samples`).
 pub(super) fn log_root_scale(r: &[f64]) -> Option<f64> {
     let m = r.iter().map(|v| v.abs().sqrt()).sum::<f64>() / r.len().max(1) as f64;

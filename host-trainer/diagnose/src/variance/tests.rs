@@ -166,9 +166,9 @@ fn null_is_calibrated() {
 
 /// Heavy-tailed white noise (Student t, 3 degrees of freedom) with a constant scale: the
 /// permutation null keeps the false-alarm rate near α (60 data sets, 10 % quantile of
-/// each one's own 400 permutations). Measured on these sets: 8 of 60 below it; a drawn
-/// ln χ²₉₈/98 null gave 5 of 60 (the statistic is a ratio of sums of squares, so the
-/// wider scatter of the block variances alone does not move it).
+/// each one's own 400 permutations). A drawn ln χ²₉₈/98 null keeps it too here (the
+/// statistic is a ratio of sums of squares, so the wider scatter of the block variances
+/// alone does not move it).
 #[test]
 fn permutation_null_holds_under_heavy_tails() {
     let mut below = 0;
@@ -376,8 +376,8 @@ fn heavy_tails_are_recognised() {
 }
 
 /// On t₃ noise the ½-power scales find a noise scale the log-variances miss (k 0.02,
-/// 20 data sets, each against its own permutations' 1 % quantile: 17 found, 9 by the
-/// log-variances), and keep the false-alarm rate near α without one (40 sets at 10 %).
+/// 20 data sets, each against its own permutations' 1 % quantile), and keep the
+/// false-alarm rate near α without one (40 sets at 10 %).
 #[test]
 fn noise_scale_under_heavy_tails() {
     let flagged_at = |t: &VarianceTest, seed: u64, q: usize| {

@@ -181,8 +181,8 @@ impl NoiseDraw {
     ///
     /// The diagnosis' own [`heteroscedastic_detectability`] is this with v = 0 and I = ½:
     /// true of the matched simulator, not of a counted or heavy-tailed output, where it
-    /// overstates D (measured on the reported seed: a case it put at 9.0 under a 0.16″
-    /// quantum has the white part a twentieth of a sample's variance).
+    /// overstates D (under a coarse quantum the white part can be a twentieth of a sample's
+    /// variance).
     ///
     /// [`heteroscedastic_detectability`]: rlg_diagnose::variance::heteroscedastic_detectability
     pub(super) fn scale_detectability(
