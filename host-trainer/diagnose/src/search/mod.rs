@@ -36,11 +36,6 @@ use significance::Significance;
 
 pub(crate) use cache::ColumnCache;
 
-/// Moving average (blocks) and threshold (σ of that average under the noise model) that
-/// mark a located span of the baseline residual.
-pub(super) const LOCATE_WINDOW: usize = 5;
-pub(super) const LOCATE_Z: f64 = 3.5;
-
 /// One pass of the search. `first`: the pass on the user's model; the later passes (after a
 /// finding) ask whether the findings account for the structure, and there the generic test
 /// keeps its one null unless a slow function of time fails the slow-drift check (see

@@ -8,7 +8,6 @@ use super::families::{Fitted, Judge};
 use super::noise_model::FittedNoise;
 use super::significance::Significance;
 use super::slow::{structure_under_rrw, STRUCTURE_RRW_BELOW};
-use super::{LOCATE_WINDOW, LOCATE_Z};
 use crate::baseline::Baseline;
 use crate::candidates::Family;
 use crate::explain::explain;
@@ -18,6 +17,11 @@ use crate::noise::replicates::{replicate_rng, simulate_block_means};
 use crate::scan::Scan;
 use crate::score::{nonlinear_of, ModelColumns};
 use crate::{DiagnoseError, Finding, Options, Span, Verdict};
+
+/// Moving average (blocks) and threshold (σ of that average under the noise model) that
+/// mark a located span of the baseline residual.
+const LOCATE_WINDOW: usize = 5;
+const LOCATE_Z: f64 = 3.5;
 
 /// Spans where the moving average of the baseline residual's block means exceeds
 /// [`LOCATE_Z`] times its σ under the fitted noise (that σ from a long simulation of it).
