@@ -24,7 +24,7 @@ use local::{half_range, pattern_search, refine_node_lag, Axes, Current, Fit, Fit
 use rlg_physics::Term;
 
 /// The non-linear parameter names of a family, in `nl` order.
-pub(super) fn nl_names(f: Family) -> &'static [&'static str] {
+fn nl_names(f: Family) -> &'static [&'static str] {
     match f {
         Family::SensorLag | Family::GradientLag | Family::Warmup => &["tau_s"],
         Family::Hysteresis => &["width_c"],
@@ -38,7 +38,7 @@ pub(super) fn nl_names(f: Family) -> &'static [&'static str] {
 }
 
 /// The amplitude parameter name (None for sensor_lag).
-pub(super) fn amp_name(f: Family) -> Option<&'static str> {
+fn amp_name(f: Family) -> Option<&'static str> {
     match f {
         Family::SensorLag | Family::TempQuantization => None,
         Family::Heteroscedastic => Some("k"),

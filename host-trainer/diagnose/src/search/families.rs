@@ -140,8 +140,9 @@ pub(super) struct Judge<'a> {
 
 /// A significant point fitted: its term, the term's 1σ uncertainties and held-out figures.
 pub(super) struct Fitted {
-    /// The family and its point among the scan's points.
+    /// The family.
     pub(super) family: Family,
+    /// Its point among the scan's points.
     pub(super) point: usize,
     /// The refined term.
     pub(super) term: Term,
