@@ -1,15 +1,10 @@
 //! The series that drive the model: the recorded temperature and its dT/dt, and the same
 //! with the reading's lag or rounding undone where the model says the sensor has them.
 
-use std::borrow::Cow;
-
-use super::blocks::Prepared;
 use super::dequantise::dequantise;
-use super::model::PhysicsModel;
 use super::rate::{estimate_rate, gapless_runs, local_slope};
 use crate::DiagnoseError;
 use compensator_core::physics::lead;
-use rlg_physics::Term;
 
 /// Driving series at the recording's rate.
 #[derive(Clone, Debug)]
@@ -71,33 +66,3 @@ impl DriveSeries {
 
 /// Half-width of the least-squares slope that un-lags the temperature, s.
 const UNLAG_HALF_WIDTH_S: f64 = 45.0;
-
-/// The drive the model sees: the recorded one, de-quantised when the model has a
-/// `temp_quantization`, then un-lagged when it has a `sensor_lag` (the physics library applies
-/// the lag first and the rounding to the lagged reading, so the diagnosis undoes them in the
-/// reverse order).
-pub fn model_drive<'a>(
-    model: &PhysicsModel,
-    prep: &'a Prepared,
-) -> Result<Cow<'a, DriveSeries>, DiagnoseError> {
-    let tau = model.terms.iter().find_map(|t| match t {
-        Term::SensorLag { tau_s } if *tau_s > 0.0 => Some(*tau_s),
-        _ => None,
-    });
-    let step = model.terms.iter().find_map(|t| match t {
-        Term::TempQuantization { step_c } if *step_c > 0.0 => Some(*step_c),
-        _ => None,
-    });
-    let dequantised = step
-        .map(|q| prep.full_drive.dequantised(q, prep.dt_s))
-        .transpose()?;
-    let full = match (tau, dequantised) {
-        (None, None) => return Ok(Cow::Borrowed(&prep.drive)),
-        (None, Some(d)) => d,
-        (Some(tau), d) => d
-            .as_ref()
-            .unwrap_or(&prep.full_drive)
-            .unlagged(tau, prep.dt_s)?,
-    };
-    Ok(Cow::Owned(prep.fitted_part(full)))
-}
