@@ -17,6 +17,12 @@ use crate::options::Options;
 use crate::result::BoardChoice;
 use crate::sets::TrainingSets;
 
+/// A table may depart in f32 by this fraction of the record's 1 s noise whatever the export
+/// limit: a MEMS gyro of a few hundred °/h of noise and thousands of °/h of bias gains nothing
+/// from a table exact to 5e-5 °/h, and a departure a thousandth of the noise adds a millionth
+/// of its variance.
+pub const NOISE_FRACTION: f64 = 1e-3;
+
 /// The board table, tuned as the table it is: a fixed-size model of `budget` vectors scored
 /// by CV on the same folds at every point of the coarse σ × c grid and at the LS-SVM's
 /// choice (a small table cannot follow a σ the exact model can, so the exact model's σ, c are
@@ -85,7 +91,9 @@ pub(crate) fn choose_board(
         order.insert(0, exact_point);
     }
     let budget = budget.min(data.x.len());
+    let noise_floor = NOISE_FRACTION * sets.noise_1s_dph;
     let mut refused = Vec::new();
+    let mut limit_dph = f64::NAN;
     for p in order {
         let lssvm = train_reduced(
             &data.features,
@@ -96,7 +104,7 @@ pub(crate) fn choose_board(
             budget,
             Reduction::FIXED_SIZE,
         )?;
-        let m = ModelFile::from_trained(
+        let mut m = ModelFile::from_trained(
             lssvm,
             &data.x,
             &data.y_dph,
@@ -105,9 +113,14 @@ pub(crate) fn choose_board(
             None,
             provenance.clone(),
         )?;
-        let prec = export::precision(&m)?;
+        let mut prec = export::precision(&m)?;
+        if noise_floor > prec.limit_dph {
+            m.f32_limit_dph = Some(noise_floor);
+            prec.limit_dph = noise_floor;
+        }
         let dev = prec.deviation_dph;
-        if dev <= prec.limit_dph {
+        limit_dph = prec.limit_dph;
+        if dev <= limit_dph {
             let choice = BoardChoice {
                 sigma: p.sigma,
                 c: p.c,
@@ -115,7 +128,7 @@ pub(crate) fn choose_board(
                 exact_choice_cv_rms_dph: exact_point.cv_rms_dph,
                 support_vectors: m.lssvm.support.len(),
                 f32_deviation_dph: dev,
-                f32_limit_dph: prec.limit_dph,
+                f32_limit_dph: limit_dph,
                 reference_folded: export::folds_reference(m.reference_dph),
                 refused,
             };
@@ -124,9 +137,9 @@ pub(crate) fn choose_board(
         refused.push((p.sigma, p.c, dev));
     }
     Err(CalibrateError::NoBoardTable(format!(
-        "no (σ, c) of the grid gives a board table within the f32 limit of {:.0e} °/h \
+        "no (σ, c) of the grid gives a board table within the f32 limit of {:.1e} °/h \
          (tried {}; smallest departure {:.2e} °/h); widen the grid to smaller c with --c-min",
-        export::EXPORT_LIMIT_DPH,
+        limit_dph,
         refused.len(),
         refused.iter().map(|r| r.2).fold(f64::INFINITY, f64::min)
     )))

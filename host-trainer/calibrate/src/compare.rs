@@ -15,11 +15,12 @@ use crate::board::board_output;
 use crate::error::{ensure, CalibrateError};
 use crate::fit::Fitted;
 use crate::heldout::HeldOutScorer;
+use crate::input::at_board_rate;
 use crate::options::{Options, MAX_POLY_DEGREE};
 use crate::result::{HeldOut, HeldOutScore, HeldOutSeries, Model, ModelRow};
 use crate::sets::TrainingSets;
 use crate::split::Plan;
-use crate::stream::{check_stream, features_of, without_sensor_faults};
+use crate::stream::{features_of, without_sensor_faults};
 
 /// The comparison's outcome.
 pub(crate) struct Comparison {
@@ -51,8 +52,8 @@ fn held_out_part<'a>(
 ) -> Result<HeldOutPart<'a>, CalibrateError> {
     let (stream, series, start) = match test {
         Some(t) => {
-            let dt_t = check_stream(t, "the test recording")?;
-            let (t, f) = without_sensor_faults(Cow::Borrowed(t), dt_t);
+            let (t, dt_t) = at_board_rate(Cow::Borrowed(t), "the test recording", notes)?;
+            let (t, f) = without_sensor_faults(t, dt_t);
             if f.total() > 0 {
                 notes.push(format!("Test recording: {}.", f.describe()));
             }

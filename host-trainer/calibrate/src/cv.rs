@@ -4,7 +4,6 @@
 use rlg_eval::baselines::PolyFit;
 use rlg_train::dataset::Dataset;
 use rlg_train::lssvm::tune::{fold_indices, Validation, PARSIMONY};
-use rlg_train::protocol::CV;
 
 use crate::error::{ensure, CalibrateError};
 use crate::options::{MAX_FOLDS, MAX_POLY_DEGREE};
@@ -101,7 +100,10 @@ pub(crate) fn poly_degree(cv: &[f64]) -> Result<usize, CalibrateError> {
 /// The CV scheme of the tuning means from the cycle each starts in (`labels`): leave one cycle
 /// out when they span two or more, else blocked CV ([`rlg_train::protocol::CV`]); with the
 /// number of groups (1 for blocked).
-pub(crate) fn validation_of(labels: &[usize]) -> Result<(Validation, usize), CalibrateError> {
+pub(crate) fn validation_of(
+    labels: &[usize],
+    block_s: usize,
+) -> Result<(Validation, usize), CalibrateError> {
     let n_tune = labels.len();
     let mut distinct = labels.to_vec();
     distinct.sort_unstable();
@@ -118,15 +120,34 @@ pub(crate) fn validation_of(labels: &[usize]) -> Result<(Validation, usize), Cal
     } else if distinct.len() >= 2 {
         (Validation::Groups(labels.to_vec()), distinct.len())
     } else {
-        (CV, 1)
+        (blocked_within_a_cycle(n_tune, block_s), 1)
     };
     ensure!(
         fold_indices(&out.0, n_tune).is_ok(),
         Input,
-        "the training span holds {n_tune} training means; tuning needs at least 50 (about \
-         1.4 h of 100 s means at 1 Hz after the dT/dt warm-up)"
+        "the training span holds {n_tune} training means of {block_s} s; tuning needs at least \
+         {} (give a shorter --block, or a longer recording)",
+        MIN_RUNS * 5
     );
     Ok(out)
+}
+
+/// Fewest means a run of blocked CV holds.
+const MIN_RUNS: usize = 10;
+/// A run of blocked CV lasts this long at least, s: longer than the slow noise neighbouring
+/// means share ([`CV`]: 10 means of 100 s).
+const RUN_S: usize = 1000;
+
+/// Blocked CV within one training cycle for means of `block_s` s: 5 folds of interleaved runs
+/// of [`RUN_S`] (at least [`MIN_RUNS`] means), shorter runs when the span holds fewer than
+/// ten of them. Means of 100 s give [`CV`], the reproduction's choice.
+fn blocked_within_a_cycle(n: usize, block_s: usize) -> Validation {
+    let run = RUN_S.div_ceil(block_s.max(1)).max(MIN_RUNS);
+    let run = run.min(n / 10).max(MIN_RUNS.min(n / 5).max(1));
+    Validation::Blocked {
+        block: run,
+        folds: 5,
+    }
 }
 
 /// Pools training means into cells of one cycle, 1 °C of T and a tenth of the largest

@@ -25,6 +25,7 @@
 //!   `Compensator`: bias stability over a selectable window, improvement factors, residual
 //!   by heating / cooling / hold, Allan deviation.
 
+mod averaging;
 mod board;
 mod compare;
 mod cv;
@@ -32,6 +33,7 @@ mod error;
 mod fit;
 pub mod fleet;
 mod heldout;
+mod input;
 mod options;
 pub mod phases;
 pub mod report;
@@ -51,10 +53,12 @@ use rlg_train::lssvm::tune::{fold_indices, tune, Grid, Tuned};
 use rlg_train::model::Provenance;
 use rlg_train::protocol::TRAIN_BLOCK;
 
+pub use averaging::{averaging_s, Averaging};
 pub use board::board_output;
 pub use cv::pool_even;
 pub use error::{chain, CalibrateError};
 pub use heldout::{allan_of, HeldOutScorer};
+pub use input::{at_board_rate, for_static, sampling, Sampling};
 pub use options::{
     Options, EXACT_MAX, LARGE_BUDGET, MAX_BUDGET, MAX_FOLDS, MAX_POLY_DEGREE, MAX_TUNE_MEANS,
 };
@@ -78,18 +82,18 @@ pub fn calibrate(
     progress: &ProgressBar,
 ) -> Result<Calibration, CalibrateError> {
     opts.validate()?;
+    let mut notes = Vec::new();
     let cal = window_of(cal, opts.from_s, opts.to_s)?;
-    let dt = check_stream(&cal, "the calibration recording")?;
+    let (cal, dt) = at_board_rate(cal, "the calibration recording", &mut notes)?;
     let (cal, cal_faults) = without_sensor_faults(cal, dt);
     let series = features_of(&cal, opts.rate_tau_s, dt)?;
     let cycles = cycle_spans(&cal.time_s, &cal.temp_c);
-    let mut notes = Vec::new();
     if cal_faults.total() > 0 {
         notes.push(format!("Calibration recording: {}.", cal_faults.describe()));
     }
     let plan = split::plan(&cycles, test.is_some(), opts.train_cycles, &mut notes)?;
     let sets = sets::training_sets(&cal, &series, &cycles, &plan, opts, &mut notes)?;
-    let (validation, cv_groups) = cv::validation_of(&sets.tune_labels)?;
+    let (validation, cv_groups) = cv::validation_of(&sets.tune_labels, sets.tune_block_s)?;
     let folds = fold_indices(&validation, sets.tune.x.len())?;
     let fitted = fit::fit_models(
         &sets,
@@ -121,6 +125,8 @@ pub fn calibrate(
         },
         samples: cal.len(),
         train_samples: sets.data.x.len(),
+        train_block_s: sets.block_s,
+        tune_block_s: sets.tune_block_s,
         lssvm_support: fitted.lssvm.support.len(),
         tuned: fitted.tuned,
         board: fitted.board,
@@ -173,7 +179,7 @@ pub fn tune_recording(
         labels.len(),
         data.x.len()
     );
-    let (validation, _) = validation_of(&labels)?;
+    let (validation, _) = validation_of(&labels, block)?;
     let tuned = tune(
         &data.features,
         &data.x,

@@ -2,7 +2,7 @@
 
 use rlg_eval::baselines::StepwiseOptions;
 use rlg_train::lssvm::tune::Grid;
-use rlg_train::protocol::{RATE_TAU_S, SUPPORT_VECTORS, TRAIN_BLOCK};
+use rlg_train::protocol::{RATE_TAU_S, SUPPORT_VECTORS};
 
 use crate::error::{ensure, CalibrateError};
 
@@ -34,8 +34,9 @@ pub struct Options {
     pub train_cycles: Option<usize>,
     /// Stability window, samples (s at 1 Hz).
     pub window: usize,
-    /// Training samples are means of this many 1 Hz samples (1: raw).
-    pub block: usize,
+    /// Training and tuning samples are means of this many 1 Hz samples (1: raw); `None`: from
+    /// the record ([`crate::averaging_s`]).
+    pub block: Option<usize>,
     /// Support vectors of the board table.
     pub budget: usize,
     /// dT/dt estimator time constant, s.
@@ -58,7 +59,7 @@ impl Default for Options {
         Options {
             train_cycles: None,
             window: 100,
-            block: TRAIN_BLOCK,
+            block: None,
             budget: SUPPORT_VECTORS,
             rate_tau_s: RATE_TAU_S,
             grid: Grid::default(),
@@ -78,7 +79,7 @@ impl Options {
             "the stability window must be at least 2 samples (got {})",
             self.window
         );
-        ensure!(self.block >= 1, Option, "--block must be at least 1");
+        ensure!(self.block != Some(0), Option, "--block must be at least 1");
         ensure!(
             (1..=MAX_BUDGET).contains(&self.budget),
             Option,

@@ -155,8 +155,12 @@ pub struct Calibration {
     pub split: Split,
     /// 1 Hz samples of the calibration recording.
     pub samples: usize,
-    /// Training means (of `block` samples).
+    /// Training means (of `train_block_s` samples).
     pub train_samples: usize,
+    /// Seconds per training mean (`--block`, else chosen from the record).
+    pub train_block_s: usize,
+    /// Seconds per tuning mean (the training means', longer on a long span).
+    pub tune_block_s: usize,
     /// The LS-SVM's tuning.
     pub tuned: Tuned,
     /// The board table's choice.

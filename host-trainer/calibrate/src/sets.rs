@@ -6,6 +6,7 @@ use rlg_train::dataset::{self, Dataset, RecordingSelection};
 use rlg_train::features::FeatureSeries;
 use rlg_train::protocol::TRAIN_BLOCK;
 
+use crate::averaging::{averaging_s, Averaging};
 use crate::cv::pool_even;
 use crate::error::{ensure, CalibrateError};
 use crate::options::{Options, MAX_TUNE_MEANS};
@@ -15,13 +16,19 @@ use crate::stream::cycle_labels;
 /// See the module doc.
 #[derive(Clone, Debug)]
 pub(crate) struct TrainingSets {
-    /// Means of `options.block` samples of the training span (pooled with
+    /// Means of `block_s` samples of the training span (pooled with
     /// `--even-temperature`).
     pub data: Dataset,
     /// Means the tuning scores (100 s, longer on a long span).
     pub tune: Dataset,
     /// The cycle each tuning mean starts in.
     pub tune_labels: Vec<usize>,
+    /// Seconds per training mean.
+    pub block_s: usize,
+    /// Seconds per tuning mean.
+    pub tune_block_s: usize,
+    /// The 1 s noise of the training span's rate, °/h (see [`Averaging::noise_1s_dph`]).
+    pub noise_1s_dph: f64,
 }
 
 /// The training span of `cal` (up to `plan.train_end_s`) as [`TrainingSets`]; `series` are
@@ -44,17 +51,22 @@ pub(crate) fn training_sets(
         block,
         rate_tau_s: opts.rate_tau_s,
     };
-    let mut data = dataset::from_recording(cal, &sel(opts.block))?;
+    let averaging = record_averaging(cal, series, train_end);
+    let block = opts.block.unwrap_or(averaging.block_s);
+    if opts.block.is_none() && averaging.block_s != TRAIN_BLOCK {
+        notes.push(format!("Training on {}.", averaging.describe()));
+    }
+    let mut data = dataset::from_recording(cal, &sel(block))?;
     // Tuning solves the exact LS-SVM per fold and grid point, cubic in its size: a long
     // training span is tuned on longer means so that at most MAX_TUNE_MEANS remain.
-    let mut tune_block = TRAIN_BLOCK;
+    let mut tune_block = block;
     let mut tune = dataset::from_recording(cal, &sel(tune_block))?;
     if tune.x.len() > MAX_TUNE_MEANS {
         tune_block *= tune.x.len().div_ceil(MAX_TUNE_MEANS);
         tune = dataset::from_recording(cal, &sel(tune_block))?;
         notes.push(format!(
             "The training span is long: σ, c and the polynomial's degree are tuned on {} means \
-             of {tune_block} s (at most {MAX_TUNE_MEANS}) rather than 100 s means.",
+             of {tune_block} s (at most {MAX_TUNE_MEANS}) rather than {block} s means.",
             tune.x.len()
         ));
     }
@@ -71,7 +83,7 @@ pub(crate) fn training_sets(
     };
     let mut tune_labels = labels_of(tune_block, tune.x.len())?;
     if opts.even_temperature {
-        let data_labels = labels_of(opts.block, data.x.len())?;
+        let data_labels = labels_of(block, data.x.len())?;
         let before = data.x.len();
         data = pool_even(&data, &data_labels).0;
         (tune, tune_labels) = pool_even(&tune, &tune_labels);
@@ -86,5 +98,19 @@ pub(crate) fn training_sets(
         data,
         tune,
         tune_labels,
+        block_s: block,
+        tune_block_s: tune_block,
+        noise_1s_dph: averaging.noise_1s_dph,
     })
+}
+
+/// [`averaging_s`] of the training span's samples (up to `train_end` s, after the dT/dt
+/// estimator's warm-up).
+fn record_averaging(cal: &Recording, series: &FeatureSeries, train_end: f64) -> Averaging {
+    let keep: Vec<usize> = (0..cal.len())
+        .filter(|&k| !series.warming_up[k] && cal.time_s[k] <= train_end)
+        .collect();
+    let pick = |v: &[f64]| -> Vec<f64> { keep.iter().map(|&k| v[k]).collect() };
+    let rate: Vec<f64> = keep.iter().map(|&k| series.rows[k][1]).collect();
+    averaging_s(&pick(&cal.rate_dph), &pick(&cal.temp_c), &rate)
 }

@@ -11,4 +11,5 @@ pub mod plot;
 pub mod progress;
 pub mod recording;
 pub mod resample;
+pub mod sampling;
 pub mod table1;

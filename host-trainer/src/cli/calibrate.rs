@@ -44,10 +44,10 @@ pub struct CalibrateArgs {
     #[arg(long, value_name = "S", default_value_t = 100,
           value_parser = clap::value_parser!(u64).range(2..=100_000))]
     pub window: u64,
-    /// Train on means of N samples (100: the paper's 100 s means; 1: raw 1 Hz).
-    #[arg(long, value_name = "N", default_value_t = rlg_train::protocol::TRAIN_BLOCK as u64,
-          value_parser = clap::value_parser!(u64).range(1..=3600))]
-    pub block: u64,
+    /// Train on means of N samples (100: the paper's 100 s means; 1: raw 1 Hz) [default: from
+    /// the record: 100 s unless its noise or length asks for shorter means].
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=3600))]
+    pub block: Option<u64>,
     /// Use samples from this time on, s.
     #[arg(long, value_name = "S")]
     pub from_s: Option<f64>,
@@ -123,7 +123,9 @@ pub fn run(a: &CalibrateArgs, command_line: &str) -> anyhow::Result<()> {
     grid.c.0 = a.c_min;
     if a.static_only {
         let opts = StaticOptions {
-            block: a.block as usize,
+            block: a
+                .block
+                .map_or(rlg_train::protocol::TRAIN_BLOCK, |b| b as usize),
             budget: a.budget as usize,
             grid,
             rate_tau_s: a.rate_tau_s,
@@ -141,7 +143,7 @@ pub fn run(a: &CalibrateArgs, command_line: &str) -> anyhow::Result<()> {
     let opts = Options {
         train_cycles: a.train_cycles,
         window: a.window as usize,
-        block: a.block as usize,
+        block: a.block.map(|b| b as usize),
         budget: a.budget as usize,
         rate_tau_s: a.rate_tau_s,
         grid,

@@ -118,7 +118,9 @@ pub fn precision(m: &ModelFile) -> Result<Precision, ExportError> {
     Ok(Precision {
         deviation_dph,
         max_correction_dph,
-        limit_dph: EXPORT_LIMIT_DPH.max(LIMIT_F32_STEPS * f32_step(max_correction_dph)),
+        limit_dph: EXPORT_LIMIT_DPH
+            .max(LIMIT_F32_STEPS * f32_step(max_correction_dph))
+            .max(m.f32_limit_dph.unwrap_or(0.0)),
     })
 }
 

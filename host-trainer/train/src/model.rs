@@ -151,6 +151,11 @@ pub struct ModelFile {
     pub training: TrainingSummary,
     /// Where the model came from.
     pub provenance: Provenance,
+    /// The board's f32 departure this table is held to when the record's noise allows a
+    /// coarser one than [`crate::export::EXPORT_LIMIT_DPH`] (a MEMS gyro's), °/h; absent: the
+    /// export's own limit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub f32_limit_dph: Option<f64>,
 }
 
 /// The reference condition for `features`: temperatures (T, lead-corrected T, play state) at
@@ -254,6 +259,7 @@ impl ModelFile {
             dt_s,
             training,
             provenance,
+            f32_limit_dph: None,
         };
         m.validate()?;
         Ok(m)
@@ -282,6 +288,9 @@ impl ModelFile {
         }
         if dim == 0 {
             return bad("no features".into());
+        }
+        if let Some(l) = self.f32_limit_dph.filter(|l| !(l.is_finite() && *l > 0.0)) {
+            return bad(format!("f32_limit_dph {l} (want a positive number of °/h)"));
         }
         if let Some(f) = m.features.iter().find(|f| Feature::from_name(f).is_none()) {
             return bad(format!("unknown feature {f:?}"));

@@ -61,13 +61,14 @@ fn split_and_tuning(c: &Calibration, inputs: &Inputs) -> String {
         s,
         "Training: {} means of {} s from {} samples at 1 Hz. Inputs: recorded T and the board's \
          dT/dt estimator (τ = {} s).\n",
-        c.train_samples, c.options.block, c.samples, c.options.rate_tau_s
+        c.train_samples, c.train_block_s, c.samples, c.options.rate_tau_s
     );
     let _ = writeln!(
         s,
-        "σ and c of the LS-SVM, and the polynomial's degree, by {} on 100 s means of the \
+        "σ and c of the LS-SVM, and the polynomial's degree, by {} on {} s means of the \
          training span: σ = {:.4}, c = {:.4}, CV RMS {:.3e} °/h ({} grid points).\n",
         c.split.validation,
+        c.tune_block_s,
         c.tuned.sigma,
         c.tuned.c,
         c.tuned.cv_rms_dph,
