@@ -10,7 +10,7 @@
 //! the same gyro run through the same profile again with its own noise
 //! (`diagnose::bench::case_runs`): nothing chosen or fitted has seen it. (Holding out the
 //! later cycles of one recording instead would let the diagnosis, which needs at least 5.5 h,
-//! see the held-out cycles; diagnosing the first cycle alone found almost nothing.)
+//! see the held-out cycles, and the first cycle alone is too short to diagnose most effects.)
 
 use rayon::prelude::*;
 use statrs::distribution::{Binomial, DiscreteCDF};

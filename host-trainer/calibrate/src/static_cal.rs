@@ -189,10 +189,7 @@ struct Points {
 
 /// The points of `cal`, checked: enough of them, over a sweep of temperature, few enough to
 /// solve exactly.
-fn checked_points(
-    cal: &Recording,
-    block: usize,
-) -> Result<Points, CalibrateError> {
+fn checked_points(cal: &Recording, block: usize) -> Result<Points, CalibrateError> {
     let (points, points_from) = points_of(cal, block)?;
     let n = points.len();
     let (lo, hi) = points

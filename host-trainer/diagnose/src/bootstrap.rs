@@ -8,14 +8,14 @@ use rayon::prelude::*;
 
 use super::candidates::Family;
 use super::linalg::dot;
-use super::noise::{replicate_rng, simulate_block_means, Whitener};
+use super::noise::replicates::{replicate_rng, simulate_block_means};
 use super::prepare::Prepared;
-use super::scan::{Point, Scan};
+use super::scan::Scanned;
 use super::score::delta_bic;
 use super::variance::VarianceTest;
 use super::Options;
 use rand_chacha::ChaCha8Rng;
-use rlg_eval::noise::NoiseParams;
+use rlg_simulate::noise::NoiseParams;
 
 /// The null distributions from a parametric bootstrap of the fitted gyro noise model
 /// (replicates whitened exactly as the data are and run through the same scan): of the best
@@ -24,21 +24,18 @@ use rlg_eval::noise::NoiseParams;
 ///
 /// One threshold for all families, not one per family (each family's null put on a common
 /// scale by its exponential tail, the same overall α, so that a one-parameter aging drift
-/// would not need the evidence of the periodic scan over hundreds of frequencies): measured on
-/// the benchmark's seed 2, per-family thresholds found 45 % instead of 43 % at detectability
-/// 3–5 but raised false alarms from 8 % to 12 % with the Allan-fitted noise (27 % vs 30 % and
-/// 6 % vs 4 % with the REML fit): the family-wise share puts the false alarms where noise
-/// misfit matters most.
-#[allow(clippy::too_many_arguments)]
+/// would not need the evidence of the periodic scan over hundreds of frequencies):
+/// per-family thresholds gain little detection at moderate detectability and raise the
+/// false alarms, because a family-wise share puts them where noise misfit matters most (the
+/// slow families, whose own scans are short).
 pub(super) fn bootstrap(
-    ar: &Whitener,
+    scanned: &Scanned<'_>,
     gyro: &NoiseParams,
-    s: &Scan,
-    points: &[Point],
     var: Option<&VarianceTest>,
     prep: &Prepared,
     opts: &Options,
 ) -> Nulls {
+    let (ar, s, points) = (scanned.whitener, scanned.scan, scanned.points);
     // The replicates' series first (each with its generator, which the variance test's
     // replicate continues), then whitened together (batched triangular solves).
     let sims: Vec<(Vec<f64>, ChaCha8Rng)> = (0..opts.bootstrap.max(1))
@@ -147,10 +144,10 @@ impl Nulls {
     ///
     /// The replicates' p-values are their ranks among record and replicates: a replicate's
     /// rank among the replicates alone is one less where the record is more extreme. Ranks
-    /// among the replicates alone made the adjusted p-value one step of 1/(B + 1) too large
-    /// (in the record's own test the replicate just past it counted) and counted every tie
-    /// between the two tests: half the false alarms at α = 1 % with B = 400 under an exact
-    /// null (test `either_p_is_exact_under_an_exchangeable_null`). The structure test enters
+    /// among the replicates alone would make the adjusted p-value one step of 1/(B + 1) too
+    /// large (in the record's own test the replicate just past it would count) and count
+    /// every tie between the two tests, which halves the false alarms under an exact null
+    /// (test `either_p_is_exact_under_an_exchangeable_null`). The structure test enters
     /// as it is in the replicates (without the second null under rate random walk that can
     /// raise a record's p-value); a raised `p` is placed among the ranks as it is.
     pub(super) fn either_p(&self, p: f64, test: Test, p_other: f64) -> f64 {
@@ -290,8 +287,8 @@ mod tests {
     /// records whose smaller adjusted p-value is at most α is α, for independent and for
     /// correlated tests; and a ΔBIC below a test's threshold is exactly an adjusted p-value
     /// at most α. Ranks among the replicates alone (the replicate just past the record
-    /// counted in its own test, ties between the tests counted) gave 55 of the 100 expected
-    /// here at 1 % (independent tests).
+    /// counted in its own test, ties between the tests counted) give about half the
+    /// expected share here.
     #[test]
     fn either_p_is_exact_under_an_exchangeable_null() {
         let (trials, b) = (10_000, 400);

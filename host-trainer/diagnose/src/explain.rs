@@ -1,22 +1,13 @@
 //! The plain-words explanation of a finding.
 
-use std::collections::BTreeMap;
-
 use super::candidates::Family;
-use super::Figures;
+use super::{Figures, Finding};
 
-/// Plain-words explanation of a finding.
-#[allow(clippy::too_many_arguments)]
-pub(super) fn explain(
-    f: Family,
-    p: &BTreeMap<String, f64>,
-    u: &BTreeMap<String, f64>,
-    dbic: f64,
-    thr: f64,
-    before: &Figures,
-    after: &Figures,
-    where_: &[super::Span],
-) -> String {
+/// Plain-words explanation of `finding` (its own `explanation` aside), a term of family `f`
+/// significant below the ΔBIC threshold `thr`; `before` are the model's held-out figures.
+pub(super) fn explain(f: Family, finding: &Finding, thr: f64, before: &Figures) -> String {
+    let (p, u, dbic) = (&finding.parameters, &finding.uncertainty, finding.delta_bic);
+    let (after, where_) = (&finding.improved, &finding.where_);
     let pu = |k: &str| {
         format!(
             "{k} = {:.4} ± {:.2}",
@@ -75,6 +66,7 @@ pub(super) fn explain(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::collections::BTreeMap;
 
     fn words(lag: Option<f64>) -> String {
         let mut p = BTreeMap::from([
@@ -89,16 +81,16 @@ mod tests {
             b100_dph: 1e-3,
             bic: -100.0,
         };
-        explain(
-            Family::Backscatter,
-            &p,
-            &BTreeMap::new(),
-            -9.0,
-            -3.0,
-            &fig,
-            &fig,
-            &[],
-        )
+        let finding = Finding {
+            mechanism: Family::Backscatter.mechanism(),
+            parameters: p,
+            uncertainty: BTreeMap::new(),
+            where_: Vec::new(),
+            delta_bic: -9.0,
+            improved: fig.clone(),
+            explanation: String::new(),
+        };
+        explain(Family::Backscatter, &finding, -3.0, &fig)
     }
 
     /// The text says when the finding lives on another node than the reading's, and which

@@ -26,6 +26,12 @@ pub fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
+/// `x` less its mean.
+pub fn centred(x: &[f64]) -> Vec<f64> {
+    let m = x.iter().sum::<f64>() / x.len().max(1) as f64;
+    x.iter().map(|v| v - m).collect()
+}
+
 impl Basis {
     /// Orthonormalises `cols` (all of equal length) in order, dropping dependent ones.
     pub fn new(cols: &[Vec<f64>]) -> Self {

@@ -12,16 +12,27 @@ const HOLD_RATE_C_PER_S: f64 = 0.05 / 60.0;
 
 /// The three figures with their file names.
 pub fn figures(d: &Diagnosis) -> Vec<(&'static str, Figure)> {
-    let s = &d.series;
-    let hours: Vec<f64> = s.t_s.iter().map(|t| t / 3600.0).collect();
-    let in_span = |t: f64| d.located.iter().any(|w| t >= w.t_start_s && t <= w.t_end_s);
-    let masked = |keep: &dyn Fn(usize) -> bool, v: &[f64]| -> Vec<f64> {
-        v.iter()
-            .enumerate()
-            .map(|(i, y)| if keep(i) { *y } else { f64::NAN })
-            .collect()
-    };
+    let hours: Vec<f64> = d.series.t_s.iter().map(|t| t / 3600.0).collect();
+    vec![
+        ("residual_time.png", residual_time(d, &hours)),
+        ("residual_temperature.png", residual_temperature(d)),
+        ("before_after.png", before_after(d, &hours)),
+    ]
+}
 
+/// `v` where `keep` holds, NaN (not drawn) elsewhere.
+fn masked(keep: &dyn Fn(usize) -> bool, v: &[f64]) -> Vec<f64> {
+    v.iter()
+        .enumerate()
+        .map(|(i, y)| if keep(i) { *y } else { f64::NAN })
+        .collect()
+}
+
+/// The residual against time (`hours`), the located spans and the first finding's
+/// strongest part marked, and the findings' fitted effect.
+fn residual_time(d: &Diagnosis, hours: &[f64]) -> Figure {
+    let s = &d.series;
+    let in_span = |t: f64| d.located.iter().any(|w| t >= w.t_start_s && t <= w.t_end_s);
     let mut time = Figure::new(
         &format!(
             "Residual of the model, 100 s means ({} located span(s))",
@@ -32,14 +43,14 @@ pub fn figures(d: &Diagnosis) -> Vec<(&'static str, Figure)> {
     );
     time.series.push(Series::new(
         "residual",
-        hours.clone(),
+        hours.to_vec(),
         s.baseline_resid_dph.clone(),
         Style::Line,
     ));
     if !d.located.is_empty() {
         time.series.push(Series::new(
             "in a located span (significant residual)",
-            hours.clone(),
+            hours.to_vec(),
             masked(&|i| in_span(s.t_s[i]), &s.baseline_resid_dph),
             Style::Points,
         ));
@@ -48,7 +59,7 @@ pub fn figures(d: &Diagnosis) -> Vec<(&'static str, Figure)> {
         let in_where = |t: f64| f.where_.iter().any(|w| t >= w.t_start_s && t <= w.t_end_s);
         time.series.push(Series::new(
             &format!("where the {} effect is ≥ half its peak", f.mechanism),
-            hours.clone(),
+            hours.to_vec(),
             masked(&|i| in_where(s.t_s[i]), &s.baseline_resid_dph),
             Style::Points,
         ));
@@ -62,12 +73,17 @@ pub fn figures(d: &Diagnosis) -> Vec<(&'static str, Figure)> {
     if !d.findings.is_empty() {
         time.series.push(Series::new(
             "fitted effect of the findings",
-            hours.clone(),
+            hours.to_vec(),
             explained,
             Style::Line,
         ));
     }
+    time
+}
 
+/// The residual against temperature, split into heating, cooling and holds.
+fn residual_temperature(d: &Diagnosis) -> Figure {
+    let s = &d.series;
     let mut temp = Figure::new(
         "Residual of the model against temperature, 100 s means",
         "T (°C)",
@@ -88,7 +104,12 @@ pub fn figures(d: &Diagnosis) -> Vec<(&'static str, Figure)> {
                 .push(Series::new(label, s.temp_c.clone(), y, Style::Points));
         }
     }
+    temp
+}
 
+/// The residual of the model as given and with the findings, against time (`hours`).
+fn before_after(d: &Diagnosis, hours: &[f64]) -> Figure {
+    let s = &d.series;
     let b = &d.baseline;
     let a = d.findings.last().map_or(b, |f| &f.improved);
     let mut ba = Figure::new(
@@ -101,7 +122,7 @@ pub fn figures(d: &Diagnosis) -> Vec<(&'static str, Figure)> {
     );
     ba.series.push(Series::new(
         "model as given",
-        hours.clone(),
+        hours.to_vec(),
         s.baseline_resid_dph.clone(),
         Style::Line,
     ));
@@ -118,15 +139,11 @@ pub fn figures(d: &Diagnosis) -> Vec<(&'static str, Figure)> {
                     .join(" + ")
             }
         ),
-        hours,
+        hours.to_vec(),
         s.final_resid_dph.clone(),
         Style::Line,
     ));
-    vec![
-        ("residual_time.png", time),
-        ("residual_temperature.png", temp),
-        ("before_after.png", ba),
-    ]
+    ba
 }
 
 /// Writes the figures into `dir` (created if missing); returns their paths.

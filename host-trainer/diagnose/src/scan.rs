@@ -9,9 +9,14 @@ use super::noise::Whitener;
 use super::prepare::Prepared;
 use super::score::delta_bic;
 
+/// A point of a family's grid.
 pub(super) struct Point {
+    /// The family.
     pub(super) family: Family,
+    /// Its non-linear parameters.
     pub(super) nl: Vec<f64>,
+    /// Its block columns (shared with the column cache; emptied once the scan holds their
+    /// whitened form).
     pub(super) cols_b: std::sync::Arc<Vec<Vec<f64>>>,
 }
 
@@ -19,7 +24,7 @@ impl Point {
     /// The parameters the point's ΔBIC is charged: its family's, and one more where the
     /// term is driven by a lagging or leading node. Without the charge a lagged point wins
     /// on noise where the sensor's own node drives the term, trading the lag against the
-    /// hysteresis' width (measured: an 8 °C play came out 4.7 °C at a 370 s lag).
+    /// hysteresis' width (a wide play then comes out much narrower on a lagged node).
     pub(super) fn n_params(&self) -> usize {
         self.family.n_params() + usize::from(node_lag(self.family, &self.nl) != 0.0)
     }
@@ -41,11 +46,23 @@ pub(super) struct Scan {
     pub(super) gen_dbic: f64,
 }
 
+/// A grid scanned: the whitening, the scan's statistics and the points they belong to.
+pub(super) struct Scanned<'a> {
+    /// The whitening the scan was made in.
+    pub(super) whitener: &'a Whitener,
+    /// The scan.
+    pub(super) scan: &'a Scan,
+    /// The points, in the scan's order.
+    pub(super) points: &'a [Point],
+}
+
 /// The columns as slices, for [`Whitener::whiten_many`].
 fn refs(cols: &[Vec<f64>]) -> Vec<&[f64]> {
     cols.iter().map(Vec::as_slice).collect()
 }
 
+/// Every point's whitened fit gain over the baseline `base_b` for the block means `y_b`, and
+/// the generic structure test's, in the whitening `ar`.
 pub(super) fn scan(
     ar: &Whitener,
     base_b: &[Vec<f64>],

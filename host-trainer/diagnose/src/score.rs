@@ -271,9 +271,9 @@ fn interleaved(nb: usize, chunk: usize) -> Vec<usize> {
 /// The held-out gain of a warm-up (the model's held-out sum of squares less the model's with
 /// `warmup` added) on chunks of half its time constant instead of an hour. A warm-up lives in
 /// its first few τ: with τ under an hour the first 1 h chunk holds nearly all of it, and with
-/// that chunk held out the other folds cannot fit its amplitude, so the 1 h check called
-/// real warm-ups of τ 1 900 and 2 700 s on the design seed worse than nothing (held-out gain
-/// −1.3e-3 and −2.1e-2 (°/h)²). Shorter chunks deal the warm-up to every fold.
+/// that chunk held out the other folds cannot fit its amplitude, so the 1 h check calls real
+/// warm-ups of τ under an hour worse than nothing (a negative held-out gain). Shorter chunks
+/// deal the warm-up to every fold.
 pub(super) fn warmup_heldout_gain(
     prep: &Prepared,
     model: &PhysicsModel,

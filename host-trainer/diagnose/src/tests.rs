@@ -455,8 +455,8 @@ fn prepared_from_an_owned_recording_equals_one_from_a_lent_one() {
 
 /// A strong aging in the simulator's own recording (0.02 °/h per day, twice the paper's
 /// noise's detectability needs): white noise and bias instability fail the Allan check, and
-/// rate random walk fitted in their place took the drift (`consistent`, "not separable").
-/// The ramp is preferred to it and aging is the finding, its rate within 25 %.
+/// rate random walk fitted in their place would take the drift (`consistent`, "not
+/// separable"). The ramp is preferred to it and aging is the finding, its rate within 25 %.
 #[test]
 fn strong_aging_is_not_rate_random_walk() {
     for seed in [14, 15] {
@@ -575,7 +575,7 @@ fn in_bursts(
 /// A record sampled in bursts (5 s at 1 Hz every 30 s) is diagnosed on its burst means: a
 /// clean one is `consistent`, and a 300 s sensor lag is found with its τ within 20 %; the
 /// evidence says how the record was read. In 100 s blocks of consecutive samples, each
-/// block spanned 10 min and the record gave too few of them to diagnose. A continuous record
+/// block would span 10 min and the record give too few of them to diagnose. A continuous record
 /// and one with dropouts are not taken for bursts.
 #[test]
 fn burst_sampled_records_are_diagnosed_on_their_burst_means() {
@@ -629,8 +629,8 @@ fn burst_sampled_records_are_diagnosed_on_their_burst_means() {
 /// A bias in the square of the body's rate, which the library has no term for, is not put on
 /// a lagging or leading node. A node τ behind the reading is at T − τ·dT/dt, so a lagged ripple
 /// or play carries a dependence on the rate, and without the check against a function of the
-/// rate alone (`search::rate_alone`) seeds 43 and 44 named a backscatter on a node 300 and
-/// 370 s behind (measured). What the diagnosis says instead is left free: the structure, a
+/// rate alone (`search::families::rate_alone`) such records get a backscatter on a node a few
+/// hundred seconds behind. What the diagnosis says instead is left free: the structure, a
 /// term on the reading's node, or nothing.
 #[test]
 fn a_bias_in_the_rate_squared_is_not_put_on_a_lagged_node() {

@@ -5,6 +5,7 @@
 //! scenario and seed give byte-identical files on every machine.
 
 pub mod figure;
+pub mod noise;
 pub mod scenario;
 pub mod shipped;
 pub mod thermal;
@@ -13,7 +14,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-pub use rlg_eval::noise::{self, NoiseGen, NoiseParams};
+pub use noise::{NoiseGen, NoiseParams};
 pub use scenario::{Scenario, ScenarioError, Segment};
 pub use thermal::{Thermal, ThermalParams, ThermalSample};
 

@@ -1,7 +1,7 @@
 //! `rlg benchmark-diagnose`: the concealed-effect benchmark of the diagnosis, on the
 //! simulator's recordings (`matched`) or on an independent generator's (`mismatched`).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use clap::ValueEnum;
 use rlg_benchmarks::diagnose::mismatch::{
@@ -29,6 +29,10 @@ pub struct BenchmarkDiagnoseArgs {
     /// Working directory for the recordings; `results.json` and `report.md` are written here.
     #[arg(long)]
     pub out: PathBuf,
+    /// Also write the report (`report.md`) to this file, e.g. a results file kept in the
+    /// repository.
+    #[arg(long, value_name = "FILE")]
+    pub results_md: Option<PathBuf>,
     /// Which recordings: the simulator's (`matched`) or the independent generator's
     /// (`mismatched`; also writes `calibration.png`).
     #[arg(long, value_enum, default_value_t = Set::Matched)]
@@ -93,8 +97,27 @@ fn checked_alpha(alpha: Option<f64>) -> anyhow::Result<Option<f64>> {
     Ok(Some(a))
 }
 
+/// Writes `results.json` and `report.md` (`md`) into `out`, and `md` to `results_md` too.
+fn write_report(
+    out: &Path,
+    results_json: &str,
+    md: &str,
+    results_md: Option<&Path>,
+) -> anyhow::Result<()> {
+    rlg_io::recording::write_atomic(&out.join("results.json"), results_json.as_bytes())?;
+    rlg_io::recording::write_atomic(&out.join("report.md"), md.as_bytes())?;
+    if let Some(p) = results_md {
+        rlg_io::recording::write_atomic(p, md.as_bytes())?;
+    }
+    Ok(())
+}
+
 /// Runs the subcommand.
 pub fn run(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
+    // Checked before the run, which takes minutes.
+    if let Some(p) = &args.results_md {
+        super::check_output_file(p, "--results-md")?;
+    }
     if args.set == Set::Mismatched {
         return run_mismatched_set(args);
     }
@@ -129,11 +152,12 @@ pub fn run(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
     let results = run_benchmark(&opts, &args.out)?;
     let md = report_markdown(&results);
-    rlg_io::recording::write_atomic(
-        &args.out.join("results.json"),
-        serde_json::to_string_pretty(&results)?.as_bytes(),
+    write_report(
+        &args.out,
+        &serde_json::to_string_pretty(&results)?,
+        &md,
+        args.results_md.as_deref(),
     )?;
-    rlg_io::recording::write_atomic(&args.out.join("report.md"), md.as_bytes())?;
     let clean: Vec<&CaseResult> = results.iter().filter(|r| r.truth == Label::None).collect();
     if !clean.is_empty() {
         calibration_png_of(&clean, "matched", &args.out.join("calibration.png"))?;
@@ -177,11 +201,12 @@ fn run_mismatched_set(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
     let results = run_mismatched(&opts, &args.out)?;
     let md = mismatch_report_markdown(&results);
-    rlg_io::recording::write_atomic(
-        &args.out.join("results.json"),
-        serde_json::to_string_pretty(&results)?.as_bytes(),
+    write_report(
+        &args.out,
+        &serde_json::to_string_pretty(&results)?,
+        &md,
+        args.results_md.as_deref(),
     )?;
-    rlg_io::recording::write_atomic(&args.out.join("report.md"), md.as_bytes())?;
     calibration_png(&results, &args.out.join("calibration.png"))?;
     println!("{md}");
     eprintln!(
@@ -190,4 +215,23 @@ fn run_mismatched_set(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
         t0.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `--results-md` gets the very report `report.md` gets.
+    #[test]
+    fn the_results_file_is_the_report() {
+        let dir = tempfile::tempdir().expect("temporary directory");
+        let kept = dir.path().join("kept.md");
+        write_report(dir.path(), "[]", "| a | b |\n", Some(&kept)).expect("writes");
+        let report = std::fs::read(dir.path().join("report.md")).expect("report.md");
+        assert_eq!(std::fs::read(&kept).expect("results file"), report);
+        assert_eq!(
+            std::fs::read_to_string(dir.path().join("results.json")).expect("results.json"),
+            "[]"
+        );
+    }
 }

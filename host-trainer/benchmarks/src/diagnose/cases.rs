@@ -4,7 +4,9 @@
 use rand::{Rng, RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::detectability::{case_detectability, effect, noise_scale_peak, noise_sigmas};
+use super::detectability::{
+    amplitude_at, case_detectability, effect, noise_scale_peak, noise_sigmas,
+};
 use super::BenchError;
 use rlg_diagnose::candidates::Family;
 use rlg_diagnose::prepare::{prepare, PhysicsModel};
@@ -267,25 +269,15 @@ pub(super) fn build_case(
         }
         let hidden = match unit {
             Term::Heteroscedastic { .. } => {
-                // D is not linear in k (it is in ln(1 + k·x)): bisection on a log scale.
                 let body = &sim.truth.body_c[prep.range.clone()];
                 let d_of = |k: f64| {
                     case_detectability(&scale_amplitude(&unit, k), &truth_noisy, &prep, model)
                         .unwrap_or(0.0)
                 };
-                let (mut a, mut b) = (1e-5, 10.0);
-                if d_of(b) < target {
+                let Some(k) = amplitude_at(target, d_of) else {
                     continue;
-                }
-                for _ in 0..60 {
-                    let m = (a * b).sqrt();
-                    if d_of(m) < target {
-                        a = m;
-                    } else {
-                        b = m;
-                    }
-                }
-                let t = scale_amplitude(&unit, (a * b).sqrt());
+                };
+                let t = scale_amplitude(&unit, k);
                 last = Some((pname.clone(), sc.clone(), t.clone()));
                 if noise_scale_peak(&t, body, &sc.noise) < 0.5 * s1 {
                     t
@@ -372,7 +364,7 @@ pub fn case_runs(
 
 /// The noise seeds of case `id`'s runs: their own ChaCha8 stream of the master seed, apart
 /// from the stream its draw uses. (Seeds computed as `seed + id` would give case k of seed S
-/// the noise of case k + 1 of seed S − 1, so a design seed would see the reported seed's
+/// the noise of case k + 1 of seed S − 1, so runs at adjacent master seeds would share
 /// noise sequences.) Each seed drawn is cut to 53 bits: the truth sidecar carries it, and
 /// read back through TOML (integers are i64) or by a reader that holds JSON numbers as
 /// doubles, a larger one would not be the same integer.

@@ -146,3 +146,22 @@ pub(super) fn detectability(
     let r = Basis::new(&cols).residual(&eb);
     Some(dot(&r, &r).sqrt())
 }
+
+/// The amplitude in 1e-5 … 10 at which the detectability `d_of` reaches `target`, by
+/// bisection on a log scale (60 halvings): D grows with a noise scale's k but is not linear
+/// in it (it is in ln(1 + k·x)). `None` where even 10 falls short.
+pub(super) fn amplitude_at(target: f64, d_of: impl Fn(f64) -> f64) -> Option<f64> {
+    let (mut a, mut b) = (1e-5, 10.0);
+    if d_of(b) < target {
+        return None;
+    }
+    for _ in 0..60 {
+        let m = (a * b).sqrt();
+        if d_of(m) < target {
+            a = m;
+        } else {
+            b = m;
+        }
+    }
+    Some((a * b).sqrt())
+}

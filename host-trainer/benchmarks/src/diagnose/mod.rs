@@ -2,21 +2,21 @@
 //! (or none), concealed and set to a chosen detectability, diagnosed from the CSV alone and
 //! scored from the truth sidecar alone.
 //!
-//! Detectability of a hidden effect e(t) (°/h) on a recording: the part of its 100 s means ē
-//! (over the diagnosis' blocks) orthogonal to the baseline model's columns X (offset, T, T²,
-//! T³, Ṫ, Ṫ³, T·Ṫ on the recorded drive, the diagnosis' own design), measured in the metric
-//! of the simulated noise's exact block-mean covariance Σ (from its parameters,
+//! Detectability of a hidden effect e(t) (°/h) on a recording: the part of its 100 s means
+//! ē (over the diagnosis' blocks) orthogonal to the baseline model's columns X (offset, T,
+//! T², T³, Ṫ, Ṫ³, T·Ṫ on the recorded drive, the diagnosis' own design), measured in the
+//! metric of the simulated noise's exact block-mean covariance Σ (from its parameters,
 //! [`block_mean_autocov`]): D² = ēᵀ(Σ⁻¹ − Σ⁻¹X(XᵀΣ⁻¹X)⁻¹XᵀΣ⁻¹)ē. D is the signal-to-noise
-//! ratio of the best test for that one effect with its shape and the noise known, i.e. what no
-//! diagnosis can beat. The marginal ratio ‖P⊥ē‖/σ₁₀₀ (σ₁₀₀ the marginal σ of one 100 s mean)
-//! is not the detectability: it ignores that the bias-instability bank makes neighbouring
-//! means correlated (correlation times up to 10⁴ s), and on the benchmark's recordings it is
-//! 1.0–2.6× D (median per term from 1.06 for backscatter to 2.38 for aging, whose D 3…5 read
-//! as 7…11); it is reported beside D (`detectability_marginal`). For a bias term e is its contribution; for
-//! `sensor_lag`, e is the true baseline driven by the body temperature minus the same
-//! baseline driven by the lagged reading; for `temp_quantization` minus the same baseline
-//! driven by the rounded reading (its dT/dt by the diagnosis' estimator). Concealment: the
-//! peak of e is below half the 1 s noise σ.
+//! ratio of the best test for that one effect with its shape and the noise known, i.e. what
+//! no diagnosis can beat. The marginal ratio ‖P⊥ē‖/σ₁₀₀ (σ₁₀₀ the marginal σ of one 100 s
+//! mean) is not the detectability: it ignores that the bias-instability bank makes
+//! neighbouring means correlated (correlation times up to 10⁴ s), and it overstates D, most
+//! for slow terms such as aging (up to two or three times); it is reported beside D
+//! (`detectability_marginal`). For a bias term e is its contribution; for `sensor_lag`, e
+//! is the true baseline driven by the body temperature minus the same baseline driven by
+//! the lagged reading; for `temp_quantization` minus the same baseline driven by the
+//! rounded reading (its dT/dt by the diagnosis' estimator). Concealment: the peak of e is
+//! below half the 1 s noise σ.
 //!
 //! `heteroscedastic` changes no mean: its detectability is that of the best test for its
 //! exact shape on the 1 Hz samples, D² = ½·Σ(gᵢ − ḡ)² with gᵢ = 2·ln(1 + k·xᵢ) the

@@ -13,6 +13,7 @@ use super::noise::{describe_noise, NoiseDraw, PAPER_ARW, PAPER_BI};
 use super::shapes::Shape;
 use super::thermal::{self, describe_body, describe_chamber, Body, Chamber, Profile, Trajectory};
 use super::{uni, Kind};
+use crate::diagnose::detectability::amplitude_at;
 use crate::diagnose::BenchError;
 use rlg_diagnose::prepare::{prepare, PhysicsModel};
 use rlg_eval::paper::eq11;
@@ -368,25 +369,14 @@ fn draw_case(
             Hidden::Library {
                 term: Term::Heteroscedastic { ref_c, .. },
             } => {
-                // D is not linear in k (it is in ln(1 + k·x)): bisection on a log scale.
                 let body = &tr.node_c[prep.range.clone()];
                 let d_of = |k: f64| {
                     c.noise
                         .scale_detectability(body, k, *ref_c, prep.dt_s, prep.block)
                 };
-                let (mut a, mut b) = (1e-5, 10.0);
-                if d_of(b) < target {
+                let Some(k) = amplitude_at(target, d_of) else {
                     continue;
-                }
-                for _ in 0..60 {
-                    let m = (a * b).sqrt();
-                    if d_of(m) < target {
-                        a = m;
-                    } else {
-                        b = m;
-                    }
-                }
-                let k = (a * b).sqrt();
+                };
                 let xmax = tr
                     .node_c
                     .iter()

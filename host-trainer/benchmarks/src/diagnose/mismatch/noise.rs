@@ -9,13 +9,14 @@ use rand_distr::{Distribution, StandardNormal, StudentT};
 use serde::Serialize;
 
 use super::{log_uni, uni};
+use rlg_diagnose::linalg::{centred, dot};
+use rlg_eval::metrics::allan::FLICKER_FLOOR;
+use rlg_simulate::noise::bank_peak_adev;
 
 /// The paper's angle random walk, °/√h.
 pub(super) const PAPER_ARW: f64 = 2.5e-4;
 /// The paper's bias instability, °/h.
 pub(super) const PAPER_BI: f64 = 5e-4;
-/// Allan deviation floor of flicker noise over its bias instability B, √(2 ln 2/π).
-const FLICKER_FLOOR: f64 = 0.664_282_307_6;
 
 /// One gyro's noise.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -40,33 +41,11 @@ pub struct NoiseDraw {
     pub spikes: Vec<(usize, f64)>,
 }
 
-/// Allan variance of a Gauss–Markov process of steady-state σ and correlation time `corr_s`
-/// at cluster time `tau_s` (IEEE Std 952, C.1).
-fn gm_avar(sigma: f64, corr_s: f64, tau_s: f64) -> f64 {
-    let x = tau_s / corr_s;
-    let bracket = if x < 1e-3 {
-        x * x / 3.0 - x * x * x / 4.0
-    } else {
-        1.0 - (3.0 - 4.0 * (-x).exp() + (-2.0 * x).exp()) / (2.0 * x)
-    };
-    2.0 * sigma * sigma / x * bracket
-}
-
 /// σ of each process of a bank with correlation times `taus` whose Allan deviation peaks at
 /// 0.664·`b` (the peak searched on a log grid from a tenth of the shortest to ten times the
 /// longest correlation time).
 fn bank_sigma(taus: &[f64], b: f64) -> f64 {
-    let (lo, hi) = (taus[0], taus[taus.len() - 1]);
-    let peak = (0..=400)
-        .map(|i| 0.1 * lo * (100.0 * hi / lo).powf(f64::from(i) / 400.0))
-        .map(|tau| {
-            taus.iter()
-                .map(|&t| gm_avar(1.0, t, tau))
-                .sum::<f64>()
-                .sqrt()
-        })
-        .fold(0.0, f64::max);
-    FLICKER_FLOOR * b / peak
+    FLICKER_FLOOR * b / bank_peak_adev(taus, taus[0], taus[taus.len() - 1])
 }
 
 /// Expected variance about its own least-squares line of `m` consecutive samples of a unit
@@ -93,7 +72,7 @@ fn gm_block_share(a: f64, m: usize) -> f64 {
 }
 
 /// `n` correlation times log-spaced from `lo` over `decades`.
-fn log_spaced(lo: f64, decades: f64, n: usize) -> Vec<f64> {
+pub(super) fn log_spaced(lo: f64, decades: f64, n: usize) -> Vec<f64> {
     (0..n)
         .map(|k| lo * 10f64.powf(decades * k as f64 / (n - 1).max(1) as f64))
         .collect()
@@ -202,8 +181,8 @@ impl NoiseDraw {
     ///
     /// The diagnosis' own [`heteroscedastic_detectability`] is this with v = 0 and I = ½:
     /// true of the matched simulator, not of a counted or heavy-tailed output, where it
-    /// overstates D (measured on the reported seed: a case it put at 9.0 under a 0.16″
-    /// quantum has the white part a twentieth of a sample's variance).
+    /// overstates D (under a coarse quantum the white part can be a twentieth of a sample's
+    /// variance).
     ///
     /// [`heteroscedastic_detectability`]: rlg_diagnose::variance::heteroscedastic_detectability
     pub(super) fn scale_detectability(
@@ -231,8 +210,8 @@ impl NoiseDraw {
         } else {
             0.5
         };
-        let mean = g.iter().sum::<f64>() / g.len().max(1) as f64;
-        (info * g.iter().map(|x| (x - mean).powi(2)).sum::<f64>()).sqrt()
+        let g = centred(&g);
+        (info * dot(&g, &g)).sqrt()
     }
 
     /// σ of one sample of the stationary part (white and bank), °/h.

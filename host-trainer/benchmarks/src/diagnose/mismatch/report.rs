@@ -8,19 +8,12 @@ use plotters::prelude::*;
 use super::gen::CONDITION_TAGS;
 use super::logger::LOGGER_TAGS;
 use super::{Kind, MismatchResult};
+use crate::diagnose::report::pct;
 use crate::diagnose::{BenchError, CaseResult, Label};
 use rlg_diagnose::candidates::Family;
 
 /// The α at which the calibration is read.
 const CAL_ALPHAS: [f64; 4] = [0.01, 0.02, 0.05, 0.10];
-
-fn pct(a: usize, b: usize) -> String {
-    if b == 0 {
-        "–".to_string()
-    } else {
-        format!("{:.0} % ({a}/{b})", 100.0 * a as f64 / b as f64)
-    }
-}
 
 /// 95 % Wilson interval of a share k/n.
 fn wilson(k: usize, n: usize) -> (f64, f64) {
@@ -52,7 +45,8 @@ fn p_best(clean: &[&CaseResult], a: f64) -> usize {
     clean.iter().filter(|r| r.p_values.best <= a).count()
 }
 
-/// The report of a mismatched run.
+/// The report of a mismatched run: the summary, top-1 by form, the calibration, false
+/// alarms by condition and the confusion matrix.
 pub fn mismatch_report_markdown(results: &[MismatchResult]) -> String {
     let mut o = String::new();
     let ra = run_alpha(results);
@@ -61,12 +55,6 @@ pub fn mismatch_report_markdown(results: &[MismatchResult]) -> String {
         .filter(|r| r.kind == Kind::Clean)
         .map(|r| &r.result)
         .collect();
-    let library: Vec<&CaseResult> = results
-        .iter()
-        .filter(|r| matches!(r.kind, Kind::Library(_)))
-        .map(|r| &r.result)
-        .collect();
-    let outside: Vec<&MismatchResult> = results.iter().filter(|r| r.kind.outside()).collect();
     let _ = writeln!(
         o,
         "Mismatched set (independent generator): {} recordings, diagnosed at α = {:.1} %.\n",
@@ -81,8 +69,25 @@ pub fn mismatch_report_markdown(results: &[MismatchResult]) -> String {
              {shift} samples later).\n"
         );
     }
+    summary(&mut o, results, &clean, ra);
+    forms_table(&mut o, results);
+    o.push_str(&calibration_markdown(&clean));
+    conditions_table(&mut o, results, ra);
+    confusion_matrix(&mut o, results);
+    o
+}
+
+/// The summary table: false alarms, top-1 by detectability, parameters, effects outside the
+/// library, concealment and time.
+fn summary(o: &mut String, results: &[MismatchResult], clean: &[&CaseResult], ra: f64) {
+    let library: Vec<&CaseResult> = results
+        .iter()
+        .filter(|r| matches!(r.kind, Kind::Library(_)))
+        .map(|r| &r.result)
+        .collect();
+    let outside: Vec<&MismatchResult> = results.iter().filter(|r| r.kind.outside()).collect();
     let _ = writeln!(o, "| measure | result |\n|---|---|");
-    let fa = flagged(&clean, ra);
+    let fa = flagged(clean, ra);
     let named = clean
         .iter()
         .filter(|r| matches!(r.predicted, Label::Mechanism(_)))
@@ -157,12 +162,11 @@ pub fn mismatch_report_markdown(results: &[MismatchResult]) -> String {
         secs.get(secs.len() / 2).copied().unwrap_or(0.0),
         secs.last().copied().unwrap_or(0.0)
     );
+}
 
-    forms_table(&mut o, results);
-
-    o.push_str(&calibration_markdown(&clean));
-
-    // At the run's α and at the diagnosis' default 2 % when the run's is larger.
+/// False alarms by condition of the clean recordings, at the run's α `ra` and at the
+/// diagnosis' default 2 % when the run's is larger.
+fn conditions_table(o: &mut String, results: &[MismatchResult], ra: f64) {
     let low = CAL_ALPHAS[1].min(ra);
     let two = low < ra - 1e-12;
     let at_alpha = if two {
@@ -203,7 +207,10 @@ pub fn mismatch_report_markdown(results: &[MismatchResult]) -> String {
         }
         let _ = writeln!(o, "| {tag} | {} | {} |", cell(&with), cell(&without));
     }
+}
 
+/// The confusion matrix: rows the hidden effect, columns the diagnosis.
+fn confusion_matrix(o: &mut String, results: &[MismatchResult]) {
     let mut cols: Vec<Label> = Family::ALL
         .iter()
         .map(|f| Label::Mechanism(f.mechanism()))
@@ -236,7 +243,6 @@ pub fn mismatch_report_markdown(results: &[MismatchResult]) -> String {
             .collect();
         let _ = writeln!(o, "| {} | {} |", row.name(), cells.join(" | "));
     }
-    o
 }
 
 /// Top-1 by form, D ≥ 6 and all, when library mechanisms were hidden in other forms

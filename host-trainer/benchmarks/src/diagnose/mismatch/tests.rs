@@ -3,7 +3,7 @@
 use super::detect::Metric;
 use super::gen::DT_S;
 use super::hidden::{hetero_d, mean_effect};
-use super::noise::NoiseDraw;
+use super::noise::{log_spaced, NoiseDraw};
 use super::*;
 use crate::diagnose::{Label, PValues};
 use rlg_diagnose::prepare::prepare;
@@ -64,9 +64,7 @@ fn noise_has_the_covariance_of_its_draw() {
         student_t: false,
         bias_instability_dph: 5e-4,
         one_over_f: true,
-        gm_tau_s: (0..16)
-            .map(|k| 50.0 * 10f64.powf(4.0 * f64::from(k) / 15.0))
-            .collect(),
+        gm_tau_s: log_spaced(50.0, 4.0, 16),
         gm_sigma_dph: 0.0,
         rrw_dph_per_rt_h: 5e-4,
         quantum_arcsec: 0.3,
@@ -415,10 +413,10 @@ fn clean_results_of_both_sets_pool() {
     assert!(md.contains("| 1 % | 0 % (0/4)"), "{md}");
 }
 
-/// A clean recording of design seed 3 (case 167: 3 °C/min ramps, angle quantisation, rate
-/// random walk and 1/f-like bias) whose slow drift fills the generic test's time chunks:
-/// significant under white noise and bias instability (p 0.002), not under the record's noise
-/// refitted with rate random walk (p 0.10). It is `consistent`, and the evidence says why.
+/// A clean recording (3 °C/min ramps, angle quantisation, rate random walk and 1/f-like
+/// bias) whose slow drift fills the generic test's time chunks: significant under white
+/// noise and bias instability, not under the record's noise refitted with rate random walk.
+/// It is `consistent`, and the evidence says why.
 #[test]
 fn slow_drift_is_not_structure_under_rate_random_walk() {
     let model = PhysicsModel::paper();
@@ -454,12 +452,10 @@ fn slow_drift_is_not_structure_under_rate_random_walk() {
     );
 }
 
-/// A step at one time in the independent generator's recording (design seed 1, case 127:
-/// 1.68e-3 °/h at 10.2 h under 1/f-like bias) was named aging. It is not: a single step
-/// fits it better than aging, and the step is either the structure (`unexplained_structure`,
-/// reported within an hour of its time) or, as with the noise model's 100 s level held
-/// (its likelihood ratio at p 0.025 under rate random walk), slow drift not separable from
-/// the record's own slow noise, said in a note.
+/// A step at one time in the independent generator's recording (1.68e-3 °/h at 10.2 h
+/// under 1/f-like bias) is not aging: a single step fits it better than aging, and the step
+/// is either the structure (`unexplained_structure`, reported within an hour of its time)
+/// or slow drift not separable from the record's own slow noise, said in a note.
 #[test]
 fn step_at_one_time_is_not_named_aging() {
     let model = PhysicsModel::paper();
@@ -486,9 +482,9 @@ fn step_at_one_time_is_not_named_aging() {
     }
 }
 
-/// A warm-up of τ 1 900 s (design seed 1, case 37) lives in the record's first hour: the
-/// held-out check on 1 h chunks called it worse than nothing (`unexplained_structure`); on
-/// chunks of half its τ it is the finding, the true τ within twice its reported σ.
+/// A warm-up of τ 1 900 s lives in the record's first hour, where a held-out check on 1 h
+/// chunks calls it worse than nothing (`unexplained_structure`); on chunks of half its τ it
+/// is the finding, the true τ within twice its reported σ.
 #[test]
 fn short_warmup_passes_its_heldout_check() {
     let model = PhysicsModel::paper();
@@ -508,16 +504,15 @@ fn short_warmup_passes_its_heldout_check() {
 }
 
 /// An aging of −3.0e-3 °/h per day in the independent generator's recording, on noise with
-/// no rate random walk (design seed 1, case 85, D 9.9): white noise and bias instability
-/// fail the Allan check. Rate random walk fitted in their place once took the drift with no
-/// word (`consistent`), then a rate ramp was preferred to it and aging found. With the noise
-/// model's 100 s level held (`reml::white_and_b_given_k`) the rate random walk REML fits
-/// (K 3.7e-4 °/h/√h: the drift about a 1.7σ excursion of it over a day) explains the drift as well as
-/// the ramp at α, and the record is `consistent` with the K in a note: the slow check is
-/// calibrated (test `the_slow_check_is_calibrated_on_rate_random_walk`) and a day cannot
-/// tell this drift from that walk. What must hold either way: no other mechanism is named,
-/// the noise model's rate random walk is said, and an aging found has its rate within the
-/// benchmark's tolerance.
+/// no rate random walk (D 9.9): white noise and bias instability fail the Allan check. The
+/// rate random walk REML fits in their place, its 100 s level held
+/// (`noise::reml::white_and_b_given_k`), explains the drift as well as a ramp at α (the
+/// drift is about a 1.7σ excursion of that walk over a day), so `consistent` with the K in
+/// a note is a right answer: the slow check is calibrated (test
+/// `the_slow_check_is_calibrated_on_rate_random_walk`) and a day cannot tell this drift
+/// from that walk. What must hold either way: no other mechanism is named, the noise
+/// model's rate random walk is said, and an aging found has its rate within the benchmark's
+/// tolerance.
 #[test]
 fn a_day_long_drift_is_aging_or_said_to_be_rate_random_walk() {
     let model = PhysicsModel::paper();
@@ -550,10 +545,10 @@ fn a_day_long_drift_is_aging_or_said_to_be_rate_random_walk() {
 }
 
 /// A clean recording of the independent generator whose noise holds rate random walk and a
-/// 1/f-like bank (design seed 3, case 202): white noise and bias instability pass the Allan
-/// check, and under them the record's drift is an aging at p ≤ 2 %. Under the same record's
-/// noise refitted with rate random walk it is not significant: the verdict is `consistent`,
-/// with the drift reported as not separable from the record's own slow noise.
+/// 1/f-like bank: white noise and bias instability pass the Allan check, and under them the
+/// record's drift is an aging at p ≤ 2 %. Under the same record's noise refitted with rate
+/// random walk it is not significant: the verdict is `consistent`, with the drift reported
+/// as not separable from the record's own slow noise.
 #[test]
 fn slow_wander_of_a_clean_record_is_not_aging() {
     let model = PhysicsModel::paper();

@@ -7,7 +7,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use crate::metrics::allan::FLICKER_FLOOR;
+use rlg_eval::metrics::allan::FLICKER_FLOOR;
 
 /// Noise parameters (all 0: noiseless).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -80,16 +80,7 @@ impl NoiseParams {
                 }
             })
             .collect();
-        // Unit-σ bank's Allan deviation on a fine log grid over 0.1·lo … 10·hi.
-        let peak = (0..=400)
-            .map(|i| 0.1 * lo * (100.0 * hi / lo).powf(i as f64 / 400.0))
-            .map(|tau| {
-                taus.iter()
-                    .map(|&t| gauss_markov_avar(1.0, t, tau))
-                    .sum::<f64>()
-                    .sqrt()
-            })
-            .fold(0.0, f64::max);
+        let peak = bank_peak_adev(&taus, lo, hi);
         let sigma = if peak > 0.0 {
             FLICKER_FLOOR * self.bias_instability_dph / peak
         } else {
@@ -97,6 +88,21 @@ impl NoiseParams {
         };
         (taus, sigma)
     }
+}
+
+/// The peak Allan deviation of a bank of unit-σ Gauss–Markov processes of correlation times
+/// `taus`, searched on a log grid of 401 cluster times over 0.1·`lo` … 10·`hi` (the bank's
+/// span): the σ that puts a bank's peak at 0.664·B is 0.664·B over this.
+pub fn bank_peak_adev(taus: &[f64], lo: f64, hi: f64) -> f64 {
+    (0..=400)
+        .map(|i| 0.1 * lo * (100.0 * hi / lo).powf(f64::from(i) / 400.0))
+        .map(|tau| {
+            taus.iter()
+                .map(|&t| gauss_markov_avar(1.0, t, tau))
+                .sum::<f64>()
+                .sqrt()
+        })
+        .fold(0.0, f64::max)
 }
 
 /// Allan variance at τ of a first-order Gauss–Markov process of steady-state σ and

@@ -1,5 +1,5 @@
-//! The block-mean noise of [`crate::reml::block_mean_cov`] as a linear state-space model, and
-//! its exact whitening by the Kalman filter's innovations.
+//! The block-mean noise of [`block_mean_cov`](super::covariance::block_mean_cov) as a
+//! linear state-space model, and its exact whitening by the Kalman filter's innovations.
 //!
 //! REML (`reml.rs`) evaluates the likelihood at many variance ratios. Factoring the dense
 //! n×n covariance each time is cubic in the series' length, which made fitting on means of
@@ -22,10 +22,10 @@
 //! The filter in innovations form with correlated state and observation noise: innovation
 //! ν = y − hᵀx̂ with variance F = hᵀPh + R, gain k = (f∘Ph + c)/F, x̂ ← f∘x̂ + kν,
 //! P ← fPf + Q − F·kkᵀ. Σᵢ ln Fᵢ is ln det Σ and νᵢ/√Fᵢ is L⁻¹y for the Cholesky factor L,
-//! i.e. what [`crate::noise::GlsWhitener`] gives from the dense matrix (test
+//! i.e. what [`GlsWhitener`](super::whiten::GlsWhitener) gives from the dense matrix (test
 //! `kalman_whitening_equals_the_dense_cholesky`).
 
-use rlg_eval::noise::NoiseParams;
+use rlg_simulate::noise::NoiseParams;
 
 /// The state-space form of the block means' noise (independent states: diagonal transition
 /// and state noise).
@@ -147,8 +147,8 @@ impl BlockStateSpace {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::noise::GlsWhitener;
-    use crate::reml::block_mean_cov;
+    use crate::noise::covariance::block_mean_cov;
+    use crate::noise::whiten::GlsWhitener;
 
     /// For white level, bank and rate random walk together, and each alone, the filter's
     /// innovations are the dense Cholesky factor's whitening and their log-variances sum to

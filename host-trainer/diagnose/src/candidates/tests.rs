@@ -1,0 +1,135 @@
+//! The candidates' block columns against the block means of their samples.
+
+use super::columns::{node_stride, periodic_block_columns};
+use super::*;
+use crate::prepare::{block_samples, prepare, PhysicsModel, MAX_BLOCKS};
+use rlg_io::recording::Recording;
+
+fn recording(n: usize) -> Recording {
+    Recording {
+        time_s: (0..n).map(|k| 1000.0 + k as f64).collect(),
+        temp_c: (0..n)
+            .map(|k| 20.0 + 10.0 * (k as f64 / 7200.0).sin())
+            .collect(),
+        rate_dph: vec![-7.1; n],
+        ..Recording::default()
+    }
+}
+
+/// The closed-form block means of the periodic columns are the block means of the
+/// per-sample columns, for periods from four blocks to the record's length.
+#[test]
+fn periodic_block_columns_are_the_block_means_of_the_samples() {
+    let prep = prepare(recording(60_000)).unwrap();
+    let model = PhysicsModel::paper();
+    for period in [400.0, 777.7, 5_000.0, 59_000.0] {
+        let fast = periodic_block_columns(period, &prep).unwrap();
+        let slow: Vec<Vec<f64>> = Family::Periodic
+            .columns(&[period], &prep, &model, &prep.drive, &[])
+            .unwrap()
+            .iter()
+            .map(|v| prep.blocks(v))
+            .collect();
+        for (f, s) in fast.iter().zip(&slow) {
+            let worst = f
+                .iter()
+                .zip(s)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            assert!(worst < 1e-12, "period {period}: {worst:e}");
+        }
+    }
+}
+
+/// A family's block columns from the scan's fast path and from its per-sample columns.
+fn fast_and_slow(
+    f: Family,
+    nl: &[f64],
+    prep: &Prepared,
+    model: &PhysicsModel,
+) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+    let fast = f.block_columns(nl, prep, model, &prep.drive, &[]).unwrap();
+    let slow = f
+        .columns(nl, prep, model, &prep.drive, &[])
+        .unwrap()
+        .iter()
+        .map(|v| prep.blocks(v))
+        .collect();
+    (fast, slow)
+}
+
+/// The stepped block means of the bias families are `columns` then `Prepared::blocks`,
+/// bit for bit, at the first points of each family's grid.
+#[test]
+fn stepped_block_columns_are_the_block_means_of_the_samples() {
+    let prep = prepare(recording(60_000)).unwrap();
+    let model = PhysicsModel::paper();
+    for f in [
+        Family::Backscatter,
+        Family::GradientLag,
+        Family::Hysteresis,
+        Family::Warmup,
+        Family::ModeHop,
+        Family::Aging,
+    ] {
+        let grid = f.grid(&prep);
+        assert!(!grid.is_empty(), "{f:?}: no grid point to compare");
+        for nl in grid.into_iter().take(3) {
+            let (fast, slow) = fast_and_slow(f, &nl, &prep, &model);
+            assert_eq!(fast.len(), slow.len(), "{f:?}");
+            for (a, b) in fast.iter().zip(&slow) {
+                assert!(
+                    a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()),
+                    "{f:?} at {nl:?}"
+                );
+            }
+        }
+    }
+}
+
+/// The scan's block means of a term driven by another node, stepped at a stride of the
+/// node's lag over 200, are those of the term stepped at every sample to within a few
+/// per cent of its amplitude, for a lagging and a leading node of each family.
+#[test]
+fn strided_block_columns_of_a_node_follow_the_samples() {
+    let prep = prepare(recording(60_000)).unwrap();
+    let model = PhysicsModel::paper();
+    for f in [Family::Hysteresis, Family::ModeHop, Family::Backscatter] {
+        for lag in [3200.0, -1600.0] {
+            let nl = f
+                .grid(&prep)
+                .into_iter()
+                .filter(|p| node_lag(f, p) == lag)
+                // A mode hop mid-range, which the node's swing crosses.
+                .nth(if f == Family::ModeHop { 100 } else { 7 })
+                .expect("a lagged point");
+            let term = f.term(&nl, &[1.0, 0.0], 1000.0);
+            assert!(node_stride(&term, &prep) > 1, "{f:?} {lag}: not strided");
+            let (fast, slow) = fast_and_slow(f, &nl, &prep, &model);
+            for (a, b) in fast.iter().zip(&slow) {
+                let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                let worst = a
+                    .iter()
+                    .zip(b)
+                    .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+                let rms = (a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>()
+                    / a.len() as f64)
+                    .sqrt();
+                assert!(scale > 0.1, "{f:?} {lag}: a column of nothing");
+                assert!(
+                    worst <= 0.2 * scale && rms <= 0.02 * scale,
+                    "{f:?} {lag}: {worst} {rms}"
+                );
+            }
+        }
+    }
+}
+
+/// A record longer than MAX_BLOCKS 100 s blocks is averaged over whole multiples of 100 s.
+#[test]
+fn long_records_get_longer_blocks() {
+    assert_eq!(block_samples(100 * MAX_BLOCKS, 1.0), 100);
+    assert_eq!(block_samples(100 * MAX_BLOCKS + 1, 1.0), 200);
+    assert_eq!(block_samples(2_678_400, 1.0), 700);
+    assert_eq!(block_samples(2 * 2_678_400, 0.5), 1400);
+}

@@ -1,0 +1,467 @@
+//! Each family's best point, and its judgement: in order of significance, a significant
+//! point is fitted (its term refined, its held-out gain), asked for evidence that does not
+//! rest on the noise model, and put against the two other explanations of a slow function
+//! of time (a single step, the record's own slow noise). The first point that passes all of
+//! it is the pass's finding.
+
+use std::collections::BTreeMap;
+
+use rlg_physics::Term;
+
+use super::cache::ColumnCache;
+use super::noise_model::FittedNoise;
+use super::significance::Significance;
+use super::slow::{slow_time_only, SlowDrift, SLOW_PERIOD_OF_RECORD};
+use super::step::{step_instead, step_times, Step, StepScan};
+use crate::baseline::Baseline;
+use crate::candidates::{node_lag, Family};
+use crate::linalg::added_fit;
+use crate::noise::whiten::Whitener;
+use crate::prepare::Prepared;
+use crate::ramp::{p_under_rrw, step_p_under_rrw, Draws};
+use crate::refine::refine;
+use crate::scan::{Scan, Scanned};
+use crate::score::{
+    cycle_folds, cycle_rss, delta_bic, heldout_metrics, nonlinear_of, warmup_heldout_gain, HeldOut,
+};
+use crate::variance::VarianceTest;
+use crate::{CandidateScore, DiagnoseError, Figures, Options, StepEvidence};
+use rlg_simulate::noise::NoiseParams;
+
+/// The best point of each family (its index among the scan's points), most significant
+/// first. A node's lag is attributed only where the residual's dependence on the rate
+/// follows the term's temperature ([`rate_alone`]): elsewhere the family's best point on
+/// the reading's own node stands for it, with a note where the lagged one would have been
+/// significant.
+pub(super) fn best_points(
+    scanned: &Scanned<'_>,
+    families: &[Family],
+    sig: &Significance,
+    prep: &Prepared,
+    notes: &mut Vec<String>,
+) -> Vec<(Family, usize)> {
+    let (s, points) = (scanned.scan, scanned.points);
+    let best_of = |f: Family, keep: &dyn Fn(usize) -> bool| {
+        (0..points.len())
+            .filter(|&j| points[j].family == f && keep(j))
+            .min_by(|&a, &b| s.dbic[a].total_cmp(&s.dbic[b]))
+    };
+    let mut best: Vec<(Family, usize)> = families
+        .iter()
+        .filter_map(|f| best_of(*f, &|_| true).map(|i| (*f, i)))
+        .collect();
+    let mut rate_fit = None;
+    for (f, i) in &mut best {
+        let lag = node_lag(*f, &points[*i].nl);
+        if lag == 0.0 {
+            continue;
+        }
+        let rate_dbic = *rate_fit.get_or_insert_with(|| rate_alone(scanned.whitener, s, prep));
+        if rate_dbic > s.dbic[*i] {
+            continue;
+        }
+        let Some(j) = best_of(*f, &|j| node_lag(*f, &points[j].nl) == 0.0) else {
+            continue;
+        };
+        // Said only where the lagged term would have been significant.
+        if s.dbic[*i] < sig.threshold(*f) {
+            notes.push(format!(
+                "{} on a node {:.0} s {} the reading (ΔBIC {:.1}) is no better than a function \
+                 of dT/dt alone (ΔBIC {rate_dbic:.1}): the lag is not attributed, and {} is \
+                 judged on the reading's node (ΔBIC {:.1})",
+                f.name(),
+                lag.abs(),
+                if lag > 0.0 { "behind" } else { "ahead of" },
+                s.dbic[*i],
+                f.name(),
+                s.dbic[j]
+            ));
+        }
+        *i = j;
+    }
+    best.sort_by(|a, b| s.dbic[a.1].total_cmp(&s.dbic[b.1]));
+    best
+}
+
+/// The ΔBIC of a function of dT/dt alone that the baseline lacks: the rate's square and cube
+/// (each sample's, averaged over the block; the baseline holds the linear term), fitted
+/// jointly, two parameters.
+///
+/// A node τ behind the reading is at T − τ·dT/dt, so a term of that node differs from the same
+/// term of the reading by a dependence on the rate whose size and sign follow the term's
+/// temperature (a ripple's phase, a hop's switching point). A dependence on the rate that is
+/// the same at every temperature is not a lag: a bias that follows the rate in a way the
+/// model lacks (a gradient's square, a drive that tracks the heater's power) takes the lag's
+/// extra freedom and fits a lagged ripple or play, which then names a mechanism the record
+/// does not show. The lowest powers beyond the baseline's, not bins: a chamber's ramps are
+/// minutes and the body's rate then decays over hours through every value, which equal bins
+/// of the rate cut too coarsely for two or three parameters to follow (bins gain about a
+/// tenth of what the powers gain on a bias in the rate's square).
+fn rate_alone(ar: &Whitener, s: &Scan, prep: &Prepared) -> f64 {
+    let r = &prep.drive.dtemp_c_per_s;
+    let scale = r.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    if scale <= 0.0 || !scale.is_finite() {
+        return f64::INFINITY;
+    }
+    let raw: Vec<Vec<f64>> = [2, 3]
+        .into_iter()
+        .map(|p| prep.blocks(&r.iter().map(|v| (v / scale).powi(p)).collect::<Vec<f64>>()))
+        .collect();
+    let refs: Vec<&[f64]> = raw.iter().map(Vec::as_slice).collect();
+    let cols: Vec<Vec<f64>> = ar
+        .whiten_many(&refs)
+        .into_iter()
+        .map(|c| s.basis.residual(&c))
+        .collect();
+    let yw = s.basis.residual(&ar.whiten(&prep.y_b));
+    let (drss, _) = added_fit(&cols, &yw);
+    delta_bic(s.n, s.rss0, drss, cols.len())
+}
+
+/// What a pass judges each family's best point against.
+pub(super) struct Judge<'a> {
+    /// The model's fit.
+    pub(super) base: &'a Baseline<'a>,
+    /// The grid's scan.
+    pub(super) scanned: &'a Scanned<'a>,
+    /// The noise-scale test, where it runs.
+    pub(super) var: Option<&'a VarianceTest>,
+    /// The fitted noise.
+    pub(super) noise: &'a FittedNoise,
+    /// The thresholds and p-value scale.
+    pub(super) sig: &'a Significance,
+    /// The diagnosis' options.
+    pub(super) opts: &'a Options,
+    /// Candidate columns kept across passes.
+    pub(super) cache: &'a ColumnCache,
+    /// The model's own held-out figures.
+    pub(super) base_ho: HeldOut,
+}
+
+/// A significant point fitted: its term, the term's 1σ uncertainties and held-out figures.
+pub(super) struct Fitted {
+    /// The family.
+    pub(super) family: Family,
+    /// Its point among the scan's points.
+    pub(super) point: usize,
+    /// The refined term.
+    pub(super) term: Term,
+    /// 1σ uncertainties of its parameters, by the library's names.
+    pub(super) unc: BTreeMap<String, f64>,
+    /// Held-out figures with the term added.
+    pub(super) heldout: HeldOut,
+    /// Reduction of the held-out sum of squares, (°/h)² (for the noise scale, of the block
+    /// log-variances).
+    gain: f64,
+    /// Reduction when each temperature cycle is predicted from the others (thermal families
+    /// on records of two or more cycles).
+    cycle_gain: Option<f64>,
+}
+
+/// What a pass concluded from its families' best points.
+pub(super) struct Judged {
+    /// Every family's score, most significant first.
+    pub(super) scores: Vec<CandidateScore>,
+    /// The first point that passed every check.
+    pub(super) finding: Option<Fitted>,
+    /// A single step preferred to a slow function of time (no finding is made after it).
+    pub(super) step: Option<StepEvidence>,
+    /// Significant families with a held-out gain that are not separable from the record's
+    /// slow noise (the noise model failed its check, and they have no cycle-by-cycle
+    /// evidence).
+    untestable: Vec<Family>,
+    /// Slow functions of time significant under white + B but not under rate random walk.
+    pub(super) slow_drift: Vec<SlowDrift>,
+    /// Whether a significant family counts towards `unexplained_structure`.
+    pub(super) counted: bool,
+    /// The smallest α at which a family would make the verdict other than `consistent`.
+    pub(super) p_counted: f64,
+    /// Notes of the steps preferred, in order.
+    pub(super) notes: Vec<String>,
+}
+
+/// What a family's check computes once per pass, when first needed.
+#[derive(Default)]
+struct OncePerPass {
+    /// The model's own leave-one-cycle-out sum of squares.
+    base_cycle_rss: Option<f64>,
+    /// The whitened step columns (`None` inside: the record has no room for a step).
+    steps: Option<Option<StepScan>>,
+    /// White + B + rate random walk by REML on the baseline (`None` inside: REML puts no
+    /// rate random walk in).
+    slow_noise: Option<Option<NoiseParams>>,
+}
+
+impl Judge<'_> {
+    /// Judges the best points `best` (most significant first).
+    pub(super) fn judge(&self, best: &[(Family, usize)]) -> Result<Judged, DiagnoseError> {
+        let mut out = Judged {
+            scores: Vec::new(),
+            finding: None,
+            step: None,
+            untestable: Vec::new(),
+            slow_drift: Vec::new(),
+            counted: false,
+            p_counted: 1.0,
+            notes: Vec::new(),
+        };
+        let mut once = OncePerPass::default();
+        // When the noise model does not describe the residual, its p-values do not either,
+        // and a finding needs evidence that does not rest on it: a thermal family must
+        // predict each held-out temperature cycle (two or more cycles), and a slow function
+        // of time alone is not separable from the record's own slow noise.
+        let cycles = cycle_folds(self.base.prep);
+        for &(f, i) in best {
+            let dbic = self.scanned.scan.dbic[i];
+            let mut score = CandidateScore {
+                mechanism: f.mechanism(),
+                delta_bic: dbic,
+                threshold: self.sig.threshold(f),
+                p_value: 1.0,
+                p_value_alone: self.sig.alone_p(f, dbic),
+                heldout_gain: 0.0,
+                cycle_gain: None,
+                p_value_rrw: None,
+            };
+            if dbic < self.sig.threshold(f) {
+                let fit = match (f, self.var) {
+                    (Family::Heteroscedastic, Some(v)) => self.fit_noise_scale(v, i),
+                    _ => self.fit_mean(f, i, cycles.as_deref(), &mut once)?,
+                };
+                score.heldout_gain = fit.gain;
+                score.cycle_gain = fit.cycle_gain;
+                score.p_value_rrw = self.weigh(fit, &mut out, &mut once)?;
+            }
+            score.p_value = self.sig.candidate_p(dbic, score.p_value_rrw);
+            out.scores.push(score);
+        }
+        Ok(out)
+    }
+
+    /// The noise-scale term fitted on the block log-variances. The mean model is unchanged;
+    /// the BIC adds the held-out change of the block log-variance model (two parameters: k
+    /// and ref_c).
+    fn fit_noise_scale(&self, v: &VarianceTest, i: usize) -> Fitted {
+        let (term, u) = v.fit();
+        let unc = u.into_iter().map(|(k, x)| (k.to_string(), x)).collect();
+        let (r0, r1) = v.heldout(&term);
+        let n = v.z.len() as f64;
+        let figures = Figures {
+            bic: self.base_ho.figures.bic
+                + n * (r1.max(1e-300) / r0.max(1e-300)).ln()
+                + 2.0 * n.ln(),
+            ..self.base_ho.figures
+        };
+        Fitted {
+            family: Family::Heteroscedastic,
+            point: i,
+            term,
+            unc,
+            heldout: HeldOut {
+                figures,
+                rss_b: self.base_ho.rss_b,
+            },
+            gain: r0 - r1,
+            cycle_gain: None,
+        }
+    }
+
+    /// A family of the mean refined from its point `i`, with its held-out gain and, for a
+    /// thermal family on a record of two or more temperature cycles (`cycles`: each block's
+    /// cycle), its gain when each cycle is predicted from the others.
+    fn fit_mean(
+        &self,
+        f: Family,
+        i: usize,
+        cycles: Option<&[usize]>,
+        once: &mut OncePerPass,
+    ) -> Result<Fitted, DiagnoseError> {
+        let (prep, model) = (self.base.prep, self.base.model);
+        let (term, unc) = refine(self.base, self.scanned, i)?;
+        let heldout = heldout_metrics(prep, model, Some(&term))?;
+        let gain = match (f, nonlinear_of(&term)) {
+            (Family::Warmup, Some((_, nl))) => warmup_heldout_gain(prep, model, &term, nl[0])?,
+            _ => self.base_ho.rss_b - heldout.rss_b,
+        };
+        // Evidence that does not rest on the noise model: an effect of the temperature
+        // history recurs in every cycle, so fitted on the other cycles it must predict each
+        // held-out one better than the model alone. Slow noise does not recur and fails here
+        // whatever its spectrum.
+        let cycle_gain = match (f.is_thermal(), cycles) {
+            (true, Some(folds)) => {
+                let base_c = match once.base_cycle_rss {
+                    Some(v) => v,
+                    None => *once
+                        .base_cycle_rss
+                        .insert(cycle_rss(prep, model, None, folds)?),
+                };
+                Some(base_c - cycle_rss(prep, model, Some(&term), folds)?)
+            }
+            _ => None,
+        };
+        Ok(Fitted {
+            family: f,
+            point: i,
+            term,
+            unc,
+            heldout,
+            gain,
+            cycle_gain,
+        })
+    }
+
+    /// Weighs a significant family's fit: whether it is separable from the record's slow
+    /// noise, whether a single step explains the record better, whether it beats the
+    /// record's noise refitted with rate random walk; records what it counts for in `out`
+    /// (the fit becomes the finding where it passes everything and none was made before).
+    /// Returns its p-value under rate random walk where that was asked.
+    fn weigh(
+        &self,
+        fit: Fitted,
+        out: &mut Judged,
+        once: &mut OncePerPass,
+    ) -> Result<Option<f64>, DiagnoseError> {
+        let (f, i) = (fit.family, fit.point);
+        let prep = self.base.prep;
+        let dbic = self.scanned.scan.dbic[i];
+        let trusted = self.noise.trusted();
+        let record_s = prep.nb() as f64 * self.base.block_s();
+        let separable = trusted
+            || match f {
+                _ if f.is_thermal() => fit.cycle_gain.is_some(),
+                Family::Periodic => nonlinear_of(&fit.term)
+                    .is_some_and(|(_, nl)| nl[0] < record_s * SLOW_PERIOD_OF_RECORD),
+                Family::Heteroscedastic => true,
+                _ => false,
+            };
+        // The cycle-by-cycle gain is required only where the noise model is not trusted:
+        // with two cycles each is predicted from one, which loses real hysteresis near the
+        // detection threshold that the bootstrap finds clearly.
+        let recurs = trusted || fit.cycle_gain.is_none_or(|g| g > 0.0);
+        // A drift or a slow period in time alone competes with the time-only shape outside
+        // the library that real records show most: a step (a mode jump, a power or readout
+        // event). Where one step fits better, the structure is not attributed, and the
+        // families after this one fit worse than the step too.
+        let candidate =
+            separable && fit.gain > 0.0 && recurs && out.finding.is_none() && out.step.is_none();
+        let step_pref = if candidate {
+            step_instead(
+                self.scanned,
+                i,
+                &self.noise.gyro,
+                prep,
+                self.opts,
+                &mut once.steps,
+            )
+        } else {
+            None
+        };
+        // A slow function of time alone (or the step preferred to it) must also beat the
+        // record's own slow noise (see `slow_time_only`), even where white + B passes the
+        // Allan check.
+        let slow_check = separable
+            && trusted
+            && self.noise.without_slow_noise()
+            && slow_time_only(f, &self.scanned.points[i].nl, record_s);
+        let p_slow = if slow_check {
+            self.p_under_slow_noise(f, i, step_pref.as_ref(), once)?
+        } else {
+            None
+        };
+        let beats_slow_noise = p_slow.is_none_or(|p| p <= self.opts.alpha);
+        if separable && !beats_slow_noise {
+            out.slow_drift.push(SlowDrift {
+                shape: if step_pref.is_some() {
+                    "a single step"
+                } else {
+                    f.name()
+                },
+                p_value: p_slow.unwrap_or(1.0),
+                noise: once.slow_noise.clone().flatten(),
+            });
+        }
+        let separable = separable && beats_slow_noise;
+        if !separable && fit.gain > 0.0 && beats_slow_noise {
+            out.untestable.push(f);
+        }
+        out.counted |= separable;
+        if separable {
+            out.p_counted = out.p_counted.min(self.sig.candidate_p(dbic, p_slow));
+        }
+        if separable && candidate {
+            match step_pref {
+                Some(st) => {
+                    let (note, evidence) = st.evidence(prep, f, dbic);
+                    out.notes.push(note);
+                    out.step = Some(evidence);
+                }
+                None => out.finding = Some(fit),
+            }
+        }
+        Ok(p_slow)
+    }
+
+    /// The p-value of point `i` of `f` (or of the single step preferred to it) under the
+    /// record's noise refitted with rate random walk; `None` where REML puts no rate random
+    /// walk in.
+    fn p_under_slow_noise(
+        &self,
+        f: Family,
+        i: usize,
+        step: Option<&Step>,
+        once: &mut OncePerPass,
+    ) -> Result<Option<f64>, DiagnoseError> {
+        let g1 = once.slow_noise.get_or_insert_with(|| {
+            self.base
+                .reml_noise(true)
+                .filter(|g| g.rrw_dph_per_rt_h > 0.0)
+        });
+        let Some(g1) = g1.as_ref() else {
+            return Ok(None);
+        };
+        let draws = Draws {
+            reps: self.opts.bootstrap,
+            seed: self.opts.seed,
+        };
+        let record = self.base.block_record();
+        Ok(match step {
+            Some(st) => step_p_under_rrw(
+                &record,
+                g1,
+                st.block,
+                &step_times(self.base.prep.nb()),
+                &draws,
+            ),
+            None => {
+                let nl = &self.scanned.points[i].nl;
+                let cols = self
+                    .cache
+                    .get_or_build(f, nl, || self.base.candidate_blocks(f, nl))?;
+                p_under_rrw(&record, &cols, g1, &draws)
+            }
+        })
+    }
+}
+
+impl Judged {
+    /// Where nothing was found: the notes on significant structure that could not be
+    /// attributed (not separable from the record's slow noise, or not beating it).
+    pub(super) fn unattributed_notes(&self) -> Vec<String> {
+        let mut notes = Vec::new();
+        if self.finding.is_some() {
+            return notes;
+        }
+        if !self.untestable.is_empty() {
+            let names: Vec<&str> = self.untestable.iter().map(|f| f.name()).collect();
+            notes.push(format!(
+                "significant under the fitted noise model but not separable from the record's own \
+                 slow noise (the model fails its Allan check, and {} {} no cycle-by-cycle \
+                 evidence): slow drift, not attributed to a mechanism in a record this long",
+                names.join(", "),
+                if names.len() == 1 { "has" } else { "have" }
+            ));
+        }
+        notes.extend(self.slow_drift.iter().map(SlowDrift::note));
+        notes
+    }
+}

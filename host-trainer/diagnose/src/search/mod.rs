@@ -1,0 +1,119 @@
+//! One pass of the search, as a pipeline whose stages each take what they need and return
+//! what they found:
+//!
+//! 1. the baseline: the model's linear parameters fitted to the block means ([`Baseline`]);
+//! 2. the grid: every candidate point's block columns, and the noise-scale test
+//!    ([`grid::Grid`]);
+//! 3. the noise model the tests whiten and bootstrap by ([`noise_model::FittedNoise`]),
+//!    fitted under the null after a first scan whitened by an AR fit;
+//! 4. the scan of the grid in that whitening ([`crate::scan::scan`]) and its bootstrap
+//!    thresholds ([`significance::Significance`]);
+//! 5. each family's best point, judged in order of significance: its fit and held-out gain,
+//!    its evidence that does not rest on the noise model, the single step and the record's
+//!    own slow noise as other explanations ([`families`]);
+//! 6. the report: located spans, the generic structure test, the finding and the verdict
+//!    ([`report`]).
+//!
+//! A later pass (after a finding, with the term added to the model) runs the same pipeline
+//! on what is left.
+
+mod cache;
+mod families;
+mod grid;
+mod noise_model;
+mod report;
+mod significance;
+mod slow;
+mod step;
+
+use super::baseline::Baseline;
+use super::locate::phases;
+use super::prepare::{PhysicsModel, Prepared};
+use super::scan::{generic_columns, Scanned};
+use super::score::heldout_metrics;
+use super::{BlockSeries, DiagnoseError, Diagnosis, Evidence, Options};
+use significance::Significance;
+
+pub(crate) use cache::ColumnCache;
+
+/// One pass of the search. `first`: the pass on the user's model; the later passes (after a
+/// finding) ask whether the findings account for the structure, and there the generic test
+/// keeps its one null unless a slow function of time fails the slow-drift check (see
+/// [`slow::structure_under_rrw`]).
+pub(crate) fn run(
+    prep: &Prepared,
+    model: &PhysicsModel,
+    opts: &Options,
+    cache: &ColumnCache,
+    first: bool,
+) -> Result<Diagnosis, DiagnoseError> {
+    let base = Baseline::fit(prep, model)?;
+    let mut grid = grid::Grid::build(&base, cache)?;
+    let mut notes = grid.reading_notes(prep);
+    let generic = generic_columns(prep);
+    let ar_fit = noise_model::first_pass_ar(&base, &grid.points, &generic);
+    let noise = noise_model::FittedNoise::fit(&base, &grid.points, opts, &mut notes);
+    let whitener = noise.whitener(prep, &ar_fit);
+    let scan = grid.scan(&whitener, &base, &generic);
+    let scanned = Scanned {
+        whitener: &whitener,
+        scan: &scan,
+        points: &grid.points,
+    };
+    let sig = Significance::new(&scanned, &noise, grid.var.as_ref(), prep, opts);
+    let best = families::best_points(&scanned, &grid.families, &sig, prep, &mut notes);
+    let judge = families::Judge {
+        base: &base,
+        scanned: &scanned,
+        var: grid.var.as_ref(),
+        noise: &noise,
+        sig: &sig,
+        opts,
+        cache,
+        base_ho: heldout_metrics(prep, model, None)?,
+    };
+    let judged = judge.judge(&best)?;
+    notes.extend(judged.notes.iter().cloned());
+    notes.extend(judged.unattributed_notes());
+    let located = report::located(&base, &noise, opts);
+    let question = report::StructureQuestion {
+        base: &base,
+        generic: &generic,
+        scan: &scan,
+        noise: &noise,
+        sig: &sig,
+        reasked: first || !judged.slow_drift.is_empty(),
+    };
+    let structure = report::structure_test(&question, opts);
+    notes.extend(structure.note.iter().cloned());
+    let findings = match &judged.finding {
+        Some(found) => vec![report::finding(found, &judge)?],
+        None => Vec::new(),
+    };
+    Ok(Diagnosis {
+        verdict: report::verdict(&findings, judged.counted || structure.significant),
+        baseline: judge.base_ho.figures.clone(),
+        findings,
+        located,
+        phases: phases(prep),
+        evidence: Evidence {
+            noise_ar: ar_fit.phi.clone(),
+            noise_sigma_dph: ar_fit.sigma,
+            whitening: whitener.name().to_string(),
+            noise_fit: noise.components(),
+            noise_check: noise.check.clone(),
+            notes,
+            p_value: sig.floor(judged.p_counted.min(structure.p_value)),
+            delta_bic_threshold: best
+                .first()
+                .map_or(f64::NEG_INFINITY, |&(f, _)| sig.threshold(f)),
+            structure_threshold: sig.structure_threshold,
+            structure_delta_bic: scan.gen_dbic,
+            structure_p_value: structure.p_value,
+            step: judged.step,
+            rate_ramp: noise.ramp.clone(),
+            candidates: judged.scores,
+        },
+        series: BlockSeries::default(),
+    })
+}

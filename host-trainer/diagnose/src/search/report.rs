@@ -1,0 +1,155 @@
+//! What a pass reports besides its families' scores: where the baseline residual departs
+//! from the noise, the generic structure test on the verdict's scale, the finding in the
+//! contract's terms, and the verdict.
+
+use std::collections::BTreeMap;
+
+use super::families::{Fitted, Judge};
+use super::noise_model::FittedNoise;
+use super::significance::Significance;
+use super::slow::{structure_under_rrw, STRUCTURE_RRW_BELOW};
+use crate::baseline::Baseline;
+use crate::candidates::Family;
+use crate::explain::explain;
+use crate::linalg::{combine, Basis};
+use crate::locate::{moving_average, peak_mask, spans};
+use crate::noise::replicates::{replicate_rng, simulate_block_means};
+use crate::scan::Scan;
+use crate::score::{nonlinear_of, ModelColumns};
+use crate::{DiagnoseError, Finding, Options, Span, Verdict};
+
+/// Moving average (blocks) and threshold (σ of that average under the noise model) that
+/// mark a located span of the baseline residual.
+const LOCATE_WINDOW: usize = 5;
+const LOCATE_Z: f64 = 3.5;
+
+/// Spans where the moving average of the baseline residual's block means exceeds
+/// [`LOCATE_Z`] times its σ under the fitted noise (that σ from a long simulation of it).
+pub(super) fn located(base: &Baseline<'_>, noise: &FittedNoise, opts: &Options) -> Vec<Span> {
+    let prep = base.prep;
+    let sigma_ma = {
+        let sim = simulate_block_means(
+            &noise.gyro,
+            20_000,
+            prep.block as f64 * prep.dt_s,
+            &mut replicate_rng(opts.seed ^ 0xa11ce, 0),
+            opts.seed ^ 0xa11ce,
+        );
+        let ma = moving_average(&sim, LOCATE_WINDOW);
+        (ma.iter().map(|v| v * v).sum::<f64>() / ma.len() as f64).sqrt()
+    };
+    let ma = moving_average(&base.resid_b, LOCATE_WINDOW);
+    let mask: Vec<bool> = ma.iter().map(|v| v.abs() > LOCATE_Z * sigma_ma).collect();
+    spans(prep, &mask, 2, &base.resid_b)
+}
+
+/// What the generic structure test is asked with.
+pub(super) struct StructureQuestion<'a> {
+    /// The model's fit.
+    pub(super) base: &'a Baseline<'a>,
+    /// The generic columns.
+    pub(super) generic: &'a [Vec<f64>],
+    /// The pass's scan (its generic ΔBIC).
+    pub(super) scan: &'a Scan,
+    /// The fitted noise.
+    pub(super) noise: &'a FittedNoise,
+    /// The pass's significance scale.
+    pub(super) sig: &'a Significance,
+    /// Whether it is asked again under rate random walk: on the first pass, or where a slow
+    /// function of time has just failed the slow-drift check (the drift it saw is then in
+    /// the time chunks too, and under white + B alone it passed as structure the findings
+    /// leave behind). A later pass otherwise keeps the test's one null.
+    pub(super) reasked: bool,
+}
+
+/// The generic structure test's outcome.
+pub(super) struct Structure {
+    /// Its p-value on the verdict's scale.
+    pub(super) p_value: f64,
+    /// Whether it is significant at α.
+    pub(super) significant: bool,
+    /// Set where white + B found structure that the record's slow noise explains.
+    pub(super) note: Option<String>,
+}
+
+/// The generic structure test on the verdict's scale, the larger of its p-values under
+/// white + B and under rate random walk where the second is asked (see
+/// [`StructureQuestion::reasked`]).
+pub(super) fn structure_test(q: &StructureQuestion<'_>, opts: &Options) -> Structure {
+    let (sig, p1) = (q.sig, q.sig.structure_alone);
+    let p_rrw = (q.reasked && q.noise.without_slow_noise() && p1 <= STRUCTURE_RRW_BELOW)
+        .then(|| structure_under_rrw(q.base.prep, &q.base.cols_b, q.generic, opts))
+        .flatten();
+    let p_value = sig.floor(sig.structure_p(p_rrw.map_or(p1, |p| p1.max(p))));
+    let significant = q.scan.gen_dbic < sig.structure_threshold && p_value <= opts.alpha;
+    let note = p_rrw
+        .map(|p| (sig.structure_p(p1), sig.structure_p(p)))
+        .filter(|(p1, p)| *p1 <= opts.alpha && *p > opts.alpha)
+        .map(|(p1, q)| {
+            format!(
+                "the generic structure test (time chunks, temperature and dT/dt bands) is \
+                 significant under white noise and bias instability (p = {p1:.3}) but not \
+                 under the same record's noise refitted with rate random walk (p = {q:.3}): slow \
+                 drift, not separable from the record's own slow noise in a record this long"
+            )
+        });
+    Structure {
+        p_value,
+        significant,
+        note,
+    }
+}
+
+/// The finding in the contract's terms: its parameters, where its fitted effect is at least
+/// half its peak (for the noise scale, its log-variance change), and the plain-words
+/// explanation.
+pub(super) fn finding(found: &Fitted, judge: &Judge<'_>) -> Result<Finding, DiagnoseError> {
+    let (f, i, term) = (found.family, found.point, &found.term);
+    let base = judge.base;
+    let prep = base.prep;
+    let effect: Vec<f64> = match (f, judge.var) {
+        (Family::Heteroscedastic, Some(v)) => v.effect(term),
+        _ => {
+            let cols_b = ModelColumns::new(
+                prep,
+                base.model,
+                &base.drive,
+                nonlinear_of(term).as_ref().map(|(f, nl)| (*f, &nl[..])),
+            )?
+            .blocks()?;
+            let full = Basis::new(&cols_b);
+            let nb = prep.nb();
+            let fit1 = combine(&cols_b, &full.coefficients(&prep.y_b), nb);
+            let fit0 = combine(&base.cols_b, &base.beta_b, nb);
+            fit1.iter().zip(&fit0).map(|(a, b)| a - b).collect()
+        }
+    };
+    let where_ = spans(prep, &peak_mask(&effect, 0.5), 2, &effect);
+    let mut parameters = BTreeMap::new();
+    for (k, v) in term.parameters() {
+        parameters.insert(k, v);
+    }
+    let mut finding = Finding {
+        mechanism: f.mechanism(),
+        parameters,
+        uncertainty: found.unc.clone(),
+        where_,
+        delta_bic: judge.scanned.scan.dbic[i],
+        improved: found.heldout.figures.clone(),
+        explanation: String::new(),
+    };
+    finding.explanation = explain(f, &finding, judge.sig.threshold(f), &judge.base_ho.figures);
+    Ok(finding)
+}
+
+/// The verdict: a finding names missing physics; otherwise significant structure (a family
+/// that counts, or the generic test) is unexplained; otherwise the record is consistent.
+pub(super) fn verdict(findings: &[Finding], significant: bool) -> Verdict {
+    if !findings.is_empty() {
+        Verdict::MissingPhysics
+    } else if significant {
+        Verdict::UnexplainedStructure
+    } else {
+        Verdict::Consistent
+    }
+}

@@ -1,0 +1,307 @@
+//! The noise-scale test (`heteroscedastic`: white-noise σ multiplier 1 + k·((T − ref)/30)²).
+//!
+//! The term leaves the mean alone, so the 100 s means cannot see it; the 1 Hz samples can.
+//! Each 100 s block gives the variance of its samples about their own straight line (the
+//! line takes out the bias's change within the block, the 100–10 000 s Gauss–Markov noise
+//! barely moves inside 100 s), so z_b = ln v_b = c + 2·ln(1 + k·x_b) + ε_b with ε_b
+//! independent, of the same distribution (ln χ²_ν/ν, ν = samples − 2). The test regresses
+//! z on the block temperature and its square (the term linearised: ln(1 + k·x) ≈ k·x is
+//! quadratic in T whatever the reference), scored by the same ΔBIC as the mean families;
+//! being a ratio of sums of squares it needs neither σ nor ν, and its null distribution is
+//! drawn in the same bootstrap replicates, so the look-elsewhere over all families holds.
+//! The parameters (k, ref) are then fitted by non-linear least squares on z.
+
+use rand::{Rng, RngExt};
+
+use super::counts::MIN_COUNT_SIGMA;
+use super::counts::{block_mean_counts, summed_samples, undithered_count, CountVariance};
+use super::detrend::{detrend_degree, line_residuals, line_variance, Detrend};
+use super::tails::{heavy_tailed, log_root_scale};
+use crate::linalg::{centred, dot, Basis};
+use crate::prepare::{read_quantum, Prepared};
+use crate::score::{delta_bic, CHUNK_BLOCKS, FOLDS};
+use rlg_physics::Term;
+
+/// The block log-variances of a recording and the test's design.
+pub struct VarianceTest {
+    /// ln of each block's sample variance about its own line.
+    pub z: Vec<f64>,
+    /// Block mean temperatures, °C.
+    pub(super) temp: Vec<f64>,
+    /// [T, T²] (scaled) made orthogonal to the constant, orthonormalised.
+    pub(super) perp: Basis,
+    /// ΔBIC of the quadratic log-variance regression over the constant.
+    pub dbic: f64,
+    /// An undithered count's part of the variance, when the rate is one (`z` is then the
+    /// log-variance less it).
+    pub(super) quant: Option<CountVariance>,
+    /// Whether the block log-scales are ½-power means (heavy-tailed noise, see
+    /// [`heavy_tailed`]) instead of log-variances.
+    pub(super) heavy: bool,
+    /// Degree of the polynomial each block is taken about ([`detrend_degree`]).
+    pub(super) degree: usize,
+}
+
+/// ln(1 + k·((T − ref)/30)²)·2 per block: the log-variance the term adds (NaN where the
+/// multiplier is not positive).
+pub fn log_scale(temp: &[f64], k: f64, ref_c: f64) -> Vec<f64> {
+    temp.iter()
+        .map(|t| {
+            let x = ((t - ref_c) / 30.0).powi(2);
+            let s = 1.0 + k * x;
+            if s > 0.0 {
+                2.0 * s.ln()
+            } else {
+                f64::NAN
+            }
+        })
+        .collect()
+}
+
+impl VarianceTest {
+    /// The test on a prepared recording; None when a block has no variance (a constant or
+    /// too coarsely quantised rate; on a count summed, a block whose sums are all equal),
+    /// where a log-variance is undefined, or when the rate is an undithered count whose
+    /// noise, summed where it helps, is under [`MIN_COUNT_SIGMA`] counts. A coarse count with
+    /// little noise can leave a few blocks whose sums are all equal, even summed, and the
+    /// test then does not run.
+    pub fn new(prep: &Prepared) -> Option<Self> {
+        Self::from_samples(&prep.rate_dph, prep.block, prep.temp_b.clone())
+    }
+
+    /// The test on samples `rate` in blocks of `m`, at block temperatures `temp`; on an
+    /// undithered count, on sums of [`summed_samples`] samples.
+    pub(super) fn from_samples(rate: &[f64], m: usize, temp: Vec<f64>) -> Option<Self> {
+        match undithered_count(rate) {
+            Some((q, sigma)) => {
+                let k = summed_samples(sigma / q, m);
+                if k == 1 {
+                    return Self::of_samples(rate, m, temp, Some(q));
+                }
+                // Each block's variance of disjoint k-sums about their line, averaged over
+                // the k ways of cutting the block into sums; the mean count of a sum from
+                // the whole block's count.
+                let z: Vec<f64> = rate
+                    .chunks_exact(m)
+                    .map(|b| {
+                        let v = (0..k)
+                            .filter_map(|o| {
+                                let sums: Vec<f64> =
+                                    b[o..].chunks_exact(k).map(|c| c.iter().sum()).collect();
+                                line_variance(&sums)
+                            })
+                            .sum::<f64>()
+                            / k as f64;
+                        (v > 0.0).then(|| v.ln())
+                    })
+                    .collect::<Option<_>>()?;
+                let xi = block_mean_counts(rate, m, q, k);
+                Self::of_counts(z, xi, (m / k, k), temp, 1, false)
+            }
+            None => Self::of_samples(rate, m, temp, None),
+        }
+    }
+
+    /// The test on samples `rate` in blocks of `m`, whose quantum is `counted` when they are
+    /// an undithered count.
+    fn of_samples(rate: &[f64], m: usize, temp: Vec<f64>, counted: Option<f64>) -> Option<Self> {
+        // Only on a continuous output: on counts, even ones the noise dithers (σ half a
+        // count), the mean of |e|^½ follows where the block's mean rate falls between counts
+        // far more than the variance does (on a heavy-tailed record of counts with no noise
+        // scale it finds a strong one).
+        let degree = detrend_degree(rate, m);
+        let det = (degree > 1).then(|| Detrend::new(m, degree));
+        let residuals = |c: &[f64]| {
+            det.as_ref()
+                .map_or_else(|| line_residuals(c), |d| d.residuals(c))
+        };
+        let variance = |c: &[f64]| {
+            det.as_ref()
+                .map_or_else(|| line_variance(c), |d| d.variance(c))
+        };
+        let heavy = read_quantum(rate).is_none() && heavy_tailed(rate, m, residuals);
+        let z: Vec<f64> = if heavy {
+            rate.chunks_exact(m)
+                .map(|c| log_root_scale(&residuals(c)))
+                .collect::<Option<_>>()?
+        } else {
+            rate.chunks_exact(m)
+                .map(|c| variance(c).filter(|v| *v > 0.0).map(f64::ln))
+                .collect::<Option<_>>()?
+        };
+        match counted {
+            None => Some(Self::of_log_scales(z, temp, None, heavy, degree)),
+            Some(q) => {
+                let xi = block_mean_counts(rate, m, q, 1);
+                Self::of_counts(z, xi, (m, 1), temp, degree, heavy)
+            }
+        }
+    }
+
+    /// The test on the block log-variances `z` of an undithered count whose blocks' mean
+    /// counts per sample are `xi`, `n` values a block each the sum of `summed` samples: the
+    /// count's own variance taken out ([`CountVariance`]);
+    /// None when the noise is under [`MIN_COUNT_SIGMA`] counts.
+    fn of_counts(
+        mut z: Vec<f64>,
+        xi: Vec<f64>,
+        (n, summed): (usize, usize),
+        temp: Vec<f64>,
+        degree: usize,
+        heavy: bool,
+    ) -> Option<Self> {
+        let c = CountVariance::fit(xi, &z, n, summed);
+        if c.s < MIN_COUNT_SIGMA {
+            return None;
+        }
+        for (v, g) in z.iter_mut().zip(&c.base) {
+            *v -= g;
+        }
+        Some(Self::of_log_scales(z, temp, Some(c), heavy, degree))
+    }
+
+    /// The test on block log-scales `z` at block temperatures `temp`.
+    fn of_log_scales(
+        z: Vec<f64>,
+        temp: Vec<f64>,
+        quant: Option<CountVariance>,
+        heavy: bool,
+        degree: usize,
+    ) -> Self {
+        let mid = temp.iter().sum::<f64>() / temp.len().max(1) as f64;
+        let u: Vec<f64> = temp.iter().map(|t| (t - mid) / 30.0).collect();
+        let u2: Vec<f64> = u.iter().map(|v| v * v).collect();
+        let perp = Basis::new(&[centred(&u), centred(&u2)]);
+        let mut t = Self {
+            z,
+            temp,
+            perp,
+            dbic: 0.0,
+            quant,
+            heavy,
+            degree,
+        };
+        t.dbic = t.statistic(&t.z);
+        t
+    }
+
+    /// The log-variance the term adds to each block (NaN where the multiplier is not
+    /// positive): 2·ln(1 + k·x) on a continuous output; on an undithered count the change of
+    /// ln(count variance) when the noise σ is scaled by 1 + k·x, which the fraction's part
+    /// dilutes.
+    pub(super) fn log_scale(&self, k: f64, ref_c: f64) -> Vec<f64> {
+        match &self.quant {
+            None => log_scale(&self.temp, k, ref_c),
+            Some(c) => c
+                .log_var(c.s_ref(), |b| {
+                    1.0 + k * ((self.temp[b] - ref_c) / 30.0).powi(2)
+                })
+                .into_iter()
+                .zip(&c.base)
+                .map(|(a, b)| a - b)
+                .collect(),
+        }
+    }
+
+    /// Whether the rate is an undithered count (its variance modelled, see `CountVariance`).
+    pub fn counts(&self) -> bool {
+        self.quant.is_some()
+    }
+
+    /// How many samples each of the test's values sums (1 but on an undithered count whose
+    /// noise is under a fraction of a count, [`summed_samples`]).
+    pub fn summed(&self) -> usize {
+        self.quant.as_ref().map_or(1, |c| c.summed)
+    }
+
+    /// Degree of the polynomial each block's variance is taken about (1: its line).
+    pub fn detrend_degree(&self) -> usize {
+        self.degree
+    }
+
+    /// Whether the block scales are ½-power means (heavy-tailed white noise).
+    pub fn heavy_tailed(&self) -> bool {
+        self.heavy
+    }
+
+    /// ΔBIC of the quadratic regression of `z` over the constant.
+    pub(super) fn statistic(&self, z: &[f64]) -> f64 {
+        let zc = centred(z);
+        let rss0 = dot(&zc, &zc);
+        let r = self.perp.residual(&zc);
+        let rss1 = dot(&r, &r);
+        delta_bic(z.len(), rss0, rss0 - rss1, self.perp.q.len())
+    }
+
+    /// One bootstrap replicate of the statistic under constant noise: the recording's own
+    /// block log-variances in a random order (a permutation test). A drawn ln(χ²_ν/ν) per
+    /// block assumes Gaussian 1 Hz samples; permuted, the blocks keep whatever distribution
+    /// their variances have (heavy-tailed noise, spikes, a quantised output) and lose only
+    /// their order in temperature, which is what is tested.
+    pub fn replicate<R: Rng>(&self, rng: &mut R) -> f64 {
+        let mut z = self.z.clone();
+        for i in (1..z.len()).rev() {
+            z.swap(i, rng.random_range(0..=i));
+        }
+        self.statistic(&z)
+    }
+
+    /// Held-out sums of squares of z (without the term, with it): the term's shape fixed,
+    /// its amplitude and the constant fitted on the training folds (1 h chunks interleaved
+    /// over four folds, as the mean families' cross-validation).
+    pub fn heldout(&self, term: &Term) -> (f64, f64) {
+        let Term::Heteroscedastic { k, ref_c } = term else {
+            return (0.0, 0.0);
+        };
+        let g = self.log_scale(*k, *ref_c);
+        let nb = self.z.len();
+        let fold = |b: usize| (b / CHUNK_BLOCKS) % FOLDS;
+        let (mut rss0, mut rss1) = (0.0, 0.0);
+        for f in 0..FOLDS {
+            let train: Vec<usize> = (0..nb).filter(|&b| fold(b) != f).collect();
+            if train.len() == nb || train.is_empty() {
+                continue;
+            }
+            let m = train.len() as f64;
+            let zbar = train.iter().map(|&b| self.z[b]).sum::<f64>() / m;
+            let gbar = train.iter().map(|&b| g[b]).sum::<f64>() / m;
+            let (mut sgz, mut sgg) = (0.0, 0.0);
+            for &b in &train {
+                sgz += (g[b] - gbar) * (self.z[b] - zbar);
+                sgg += (g[b] - gbar).powi(2);
+            }
+            let a = if sgg > 0.0 { sgz / sgg } else { 0.0 };
+            for b in (0..nb).filter(|&b| fold(b) == f) {
+                rss0 += (self.z[b] - zbar).powi(2);
+                let p = zbar + a * (g[b] - gbar);
+                rss1 += (self.z[b] - p).powi(2);
+            }
+        }
+        (rss0, rss1)
+    }
+
+    /// The fitted log-variance change per block, about its mean (for locating the effect).
+    pub fn effect(&self, term: &Term) -> Vec<f64> {
+        match term {
+            Term::Heteroscedastic { k, ref_c } => centred(&self.log_scale(*k, *ref_c)),
+            _ => vec![0.0; self.z.len()],
+        }
+    }
+}
+
+/// Held-out sums of squares (without, with) of the block log-variances of `prep` for a
+/// `heteroscedastic` term (see [`VarianceTest::heldout`]); None when the test cannot run.
+pub fn heldout_variance(prep: &Prepared, term: &Term) -> Option<(f64, f64)> {
+    Some(VarianceTest::new(prep)?.heldout(term))
+}
+
+/// Detectability of a `heteroscedastic` term on samples at temperatures `temp_c` (1 Hz): the
+/// signal-to-noise ratio of the best test for that exact shape with the noise known,
+/// D² = ½·Σ (g_i − ḡ)², g_i = 2·ln(1 + k·x_i) the log-variance it adds (the Fisher
+/// information of a Gaussian sample's log-variance is ½), the constant part being absorbed
+/// by the fitted noise level. Assumes the white noise carries the 1 s variance, as the
+/// simulator's Gauss–Markov bank (correlation times ≥ 100 s) leaves it.
+pub fn heteroscedastic_detectability(temp_c: &[f64], k: f64, ref_c: f64) -> f64 {
+    let g = centred(&log_scale(temp_c, k, ref_c));
+    (0.5 * dot(&g, &g)).sqrt()
+}
