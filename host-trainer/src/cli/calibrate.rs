@@ -24,9 +24,9 @@ pub struct CalibrateArgs {
     /// cycles of --recording are held out).
     #[arg(long, value_name = "FILE")]
     pub test: Option<PathBuf>,
-    /// Units of the recordings' columns.
+    /// How the recordings are written (separator, columns, units).
     #[command(flatten)]
-    pub units: super::UnitArgs,
+    pub input: super::InputArgs,
     /// Output folder: report.md, summary.json, PNG figures, model.json, table.rs, table.h
     /// (with --diagnose, when the diagnosed inputs are adopted, also model_diagnosed.json,
     /// table_diagnosed.rs, table_diagnosed.h).
@@ -99,9 +99,9 @@ pub fn run(a: &CalibrateArgs, command_line: &str) -> anyhow::Result<()> {
         "--c-min {}: c must be positive",
         a.c_min
     );
-    let cal = super::read_recording(&a.recording, &a.units)?;
+    let cal = super::read_recording(&a.recording, &a.input)?;
     let test = match &a.test {
-        Some(p) => Some(super::read_recording(p, &a.units)?),
+        Some(p) => Some(super::read_recording(p, &a.input)?),
         None => None,
     };
     let inputs = Inputs {

@@ -16,9 +16,9 @@ pub struct CloseLoopArgs {
     /// Calibration recording (CSV).
     #[arg(long, value_name = "FILE")]
     pub recording: PathBuf,
-    /// Units of the recordings' columns.
+    /// How the recordings are written (separator, columns, units).
     #[command(flatten)]
-    pub units: super::UnitArgs,
+    pub input: super::InputArgs,
     /// A later recording of the same gyro to judge the models on: the diagnosis and the
     /// training then use all of `--recording`. Without it, the later cycles of `--recording`
     /// are held out (see `--to-s`).
@@ -52,9 +52,9 @@ fn read_diagnosis(p: &PathBuf) -> anyhow::Result<Diagnosis> {
 
 /// Runs `rlg close-loop`.
 pub fn run(args: &CloseLoopArgs, command_line: &str) -> anyhow::Result<()> {
-    let rec = super::read_recording(&args.recording, &args.units)?;
+    let rec = super::read_recording(&args.recording, &args.input)?;
     let test = match &args.test {
-        Some(p) => Some(super::read_recording(p, &args.units)?),
+        Some(p) => Some(super::read_recording(p, &args.input)?),
         None => None,
     };
     let held_out = match &test {

@@ -12,9 +12,9 @@ pub struct DiagnoseArgs {
     /// Recording (CSV).
     #[arg(long, value_name = "FILE")]
     pub recording: PathBuf,
-    /// Units of the recording's columns.
+    /// How the recording is written (separator, columns, units).
     #[command(flatten)]
-    pub units: super::UnitArgs,
+    pub input: super::InputArgs,
     /// Physics model (TOML `[[terms]]`, or a scenario file whose terms are taken; `rlg terms`
     /// lists the kinds); default: the paper's model (models/paper.toml).
     #[arg(long, value_name = "FILE")]
@@ -68,7 +68,7 @@ pub fn run(args: &DiagnoseArgs) -> anyhow::Result<()> {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("--plots {}: cannot create the directory", dir.display()))?;
     }
-    let mut rec = super::read_recording(&args.recording, &args.units)?;
+    let mut rec = super::read_recording(&args.recording, &args.input)?;
     if args.from_s.is_some() || args.to_s.is_some() {
         let lo = args.from_s.unwrap_or(f64::NEG_INFINITY);
         let hi = args.to_s.unwrap_or(f64::INFINITY);

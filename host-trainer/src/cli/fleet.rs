@@ -12,16 +12,17 @@ use rlg_io::progress::progress;
 /// Arguments of `rlg train-fleet`.
 #[derive(Debug, Args)]
 pub struct TrainFleetArgs {
-    /// Folder of recordings (`*.csv`: time_s, rate_dph, temp_c at 1 Hz), one per gyro or axis.
+    /// Folder of recordings (`*.csv`: time_s, rate_dph, temp_c at 1 Hz, or as the reading
+    /// flags say), one per gyro or axis.
     #[arg(long, value_name = "DIR")]
     pub dir: PathBuf,
     /// Output folder: one calibration folder per recording (`<stem>/`: report, model,
     /// tables) and `summary.csv`, `summary.md`.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// Units of the recordings' columns.
+    /// How the recordings are written (separator, columns, units).
     #[command(flatten)]
-    pub units: super::UnitArgs,
+    pub input: super::InputArgs,
     /// Support vectors of each board table.
     #[arg(long, value_name = "M", default_value_t = rlg_train::protocol::SUPPORT_VECTORS as u64,
           value_parser = clap::value_parser!(u64).range(1..=rlg_calibrate::MAX_BUDGET as u64))]
@@ -75,13 +76,18 @@ pub fn run(a: &TrainFleetArgs, command_line: &str) -> anyhow::Result<()> {
         min_improvement: a.min_improvement,
     };
     let t0 = std::time::Instant::now();
-    let units = a.units.choice();
+    a.input.one_axis()?;
+    let read_opts = a.input.options();
     let read = move |p: &std::path::Path| -> Result<_, rlg_calibrate::CalibrateError> {
-        let (rec, warnings) = rlg_io::recording::Recording::read_checked(p, &units)?;
-        for w in warnings {
-            eprintln!("warning: {}: {w}", p.display());
-        }
-        Ok(rec)
+        let axes = rlg_io::recording::read_axes(p, &read_opts)?;
+        super::input::print_report(p, &axes);
+        axes.axes
+            .into_iter()
+            .next()
+            .map(|a| a.recording)
+            .ok_or_else(|| {
+                rlg_calibrate::CalibrateError::Internal("the reader returned no axis".into())
+            })
     };
     let rows = fleet::calibrate_fleet(
         &a.dir,

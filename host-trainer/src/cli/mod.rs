@@ -10,6 +10,7 @@ pub mod default_table;
 pub mod diagnose;
 pub mod export;
 pub mod fleet;
+pub mod input;
 pub mod report;
 pub mod resample;
 pub mod simulate;
@@ -18,6 +19,8 @@ pub mod terms;
 pub mod train;
 
 use clap::{Parser, Subcommand};
+
+pub use input::{read_axes_cli, read_recording, InputArgs};
 
 /// Toolchain for LS-SVM temperature compensation of RLG bias.
 #[derive(Debug, Parser)]
@@ -101,85 +104,6 @@ impl Cli {
     }
 }
 
-/// Units of a recording's columns when they are not the format's (seconds, °C, °/h). A
-/// column whose unit is not given is checked for plausibility and refused when it looks like
-/// another unit ([`rlg_io::recording::Recording::unit_errors`]); a unit given is trusted.
-#[derive(Clone, Debug, Default, clap::Args)]
-pub struct UnitArgs {
-    /// Unit of the time column [default: s, checked].
-    #[arg(long, value_enum, value_name = "UNIT")]
-    pub time_unit: Option<TimeUnitArg>,
-    /// Unit of the temperature columns [default: c, checked].
-    #[arg(long, value_enum, value_name = "UNIT")]
-    pub temp_unit: Option<TempUnitArg>,
-    /// Unit of the rate column [default: dph, checked].
-    #[arg(long, value_enum, value_name = "UNIT")]
-    pub rate_unit: Option<RateUnitArg>,
-}
-
-/// `--time-unit` values.
-#[derive(Clone, Copy, Debug, clap::ValueEnum)]
-pub enum TimeUnitArg {
-    /// Seconds.
-    S,
-    /// Milliseconds.
-    Ms,
-    /// Microseconds.
-    Us,
-}
-
-/// `--temp-unit` values.
-#[derive(Clone, Copy, Debug, clap::ValueEnum)]
-pub enum TempUnitArg {
-    /// Degrees Celsius.
-    C,
-    /// Kelvin.
-    K,
-}
-
-/// `--rate-unit` values.
-#[derive(Clone, Copy, Debug, clap::ValueEnum)]
-pub enum RateUnitArg {
-    /// Degrees per hour.
-    Dph,
-    /// Radians per second.
-    RadS,
-    /// Degrees per second.
-    DegS,
-}
-
-impl UnitArgs {
-    /// The units as the reader takes them.
-    pub fn choice(&self) -> UnitChoice {
-        UnitChoice {
-            time: self.time_unit.map(|u| match u {
-                TimeUnitArg::S => TimeUnit::S,
-                TimeUnitArg::Ms => TimeUnit::Ms,
-                TimeUnitArg::Us => TimeUnit::Us,
-            }),
-            temp: self.temp_unit.map(|u| match u {
-                TempUnitArg::C => TempUnit::C,
-                TempUnitArg::K => TempUnit::K,
-            }),
-            rate: self.rate_unit.map(|u| match u {
-                RateUnitArg::Dph => RateUnit::Dph,
-                RateUnitArg::RadS => RateUnit::RadS,
-                RateUnitArg::DegS => RateUnit::DegS,
-            }),
-        }
-    }
-}
-
-/// Reads a recording in the units given ([`Recording::read_checked`]: implausible units are
-/// refused) and prints the warnings that remain on stderr, naming the file.
-pub fn read_recording(path: &std::path::Path, units: &UnitArgs) -> anyhow::Result<Recording> {
-    let (rec, warnings) = Recording::read_checked(path, &units.choice())?;
-    for w in warnings {
-        eprintln!("warning: {}: {w}", path.display());
-    }
-    Ok(rec)
-}
-
 /// Checks before the work that `path` can be written as a file: not a directory, its
 /// directory exists. The write itself is atomic (a temporary beside it, then a rename).
 pub fn check_output_file(path: &std::path::Path, flag: &str) -> anyhow::Result<()> {
@@ -200,8 +124,6 @@ pub fn check_output_file(path: &std::path::Path, flag: &str) -> anyhow::Result<(
     );
     Ok(())
 }
-
-use rlg_io::recording::{RateUnit, Recording, TempUnit, TimeUnit, UnitChoice};
 
 /// The command line as a reproducible string: `rlg` followed by the arguments, each quoted
 /// when it holds a space (the program's own path is not recorded).

@@ -11,9 +11,10 @@ pub struct ResampleArgs {
     /// Input recording (CSV).
     #[arg(long, value_name = "FILE")]
     pub recording: PathBuf,
-    /// Units of the input's columns (the output is in seconds, °C and °/h).
+    /// How the input is written (separator, columns, units); the output is the format's own
+    /// (comma-separated; seconds, °/h, °C).
     #[command(flatten)]
-    pub units: super::UnitArgs,
+    pub input: super::InputArgs,
     /// Output recording (CSV, written atomically).
     #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
@@ -33,7 +34,7 @@ pub struct ResampleArgs {
 
 /// Runs `rlg resample`.
 pub fn run(a: &ResampleArgs) -> anyhow::Result<()> {
-    let rec = super::read_recording(&a.recording, &a.units)?;
+    let rec = super::read_recording(&a.recording, &a.input)?;
     let (out, rep) = match a.bursts {
         Some(f) => burst_means(&rec, f)?,
         None => bin_means(&rec, a.period_s)?,

@@ -16,10 +16,11 @@ pub struct TrainArgs {
     /// The paper's Table 1 as CSV (columns temp_c, rate_dph; `#` comments): one feature, temp_c.
     #[arg(long = "table", visible_alias = "table1", value_name = "FILE")]
     pub table1: Option<PathBuf>,
-    /// Units of the recording's columns.
+    /// How the recording is written (separator, columns, units).
     #[command(flatten)]
-    pub units: super::UnitArgs,
-    /// A recording (time_s, rate_dph, temp_c): features temp_c and temp_rate_c_per_s.
+    pub input: super::InputArgs,
+    /// A recording (time_s, rate_dph, temp_c, or the columns --time-col, --rate-col,
+    /// --temp-col name): features temp_c and temp_rate_c_per_s.
     #[arg(long, value_name = "FILE")]
     pub recording: Option<PathBuf>,
     /// Train on samples from this time on, s (recording only).
@@ -68,7 +69,7 @@ pub fn run(a: &TrainArgs, command_line: &str) -> anyhow::Result<()> {
             };
             (
                 p,
-                TrainData::Recording(super::read_recording(p, &a.units)?, sel),
+                TrainData::Recording(super::read_recording(p, &a.input)?, sel),
             )
         }
         (None, None) => anyhow::bail!("give --table FILE or --recording FILE"),
@@ -130,7 +131,7 @@ mod tests {
         let model = dir.path().join("m.json");
         let args = TrainArgs {
             table1: Some(csv.clone()),
-            units: crate::cli::UnitArgs::default(),
+            input: crate::cli::InputArgs::default(),
             recording: None,
             from_s: None,
             to_s: None,

@@ -1,201 +1,37 @@
-//! The file format: reading (line by line, every field checked, errors with line and
-//! column) and writing (fixed formats, atomic).
+//! The format's own files: reading them (through the general reader, `read`) and writing
+//! them (fixed formats, atomic).
 
 use std::path::Path;
 
 use super::{Recording, RecordingError};
 
 impl Recording {
-    /// Reads and validates a recording.
+    /// Reads and validates a recording with the default [`super::ReadOptions`], without the
+    /// plausibility checks: a column whose unit the file does not state (header suffix,
+    /// units row, column name) is taken in the format's unit and not second-guessed
+    /// ([`Recording::read_checked`] and [`super::read_axes`] check it).
     ///
-    /// Fields are plain (no quoting): a field may not hold a comma. Blank lines are skipped;
-    /// `#` lines anywhere are comments. Every field of a required or `chamber_c` column must
-    /// be a finite number, every row must have as many fields as the header, and `time_s`
-    /// must be strictly increasing. Errors name the file, the 1-based line and column.
+    /// `#` lines anywhere are comments, kept; blank lines are skipped. Every field of a
+    /// required or `chamber_c` column must be a finite number (an empty one leaves the sample
+    /// out), every row must have as many fields as the header, and `time_s` must be strictly
+    /// increasing. Errors name the file, the 1-based line and column. Other separators, a
+    /// byte-order mark and decimal commas are detected ([`super::read_axes`]).
     pub fn read_csv(path: &Path) -> Result<Recording, RecordingError> {
-        use std::io::BufRead;
-        // Read line by line, twice (once to count the rows, once to parse them): the whole
-        // text in memory would double the peak of a long record (440 MB of text for 10⁷
-        // samples beside their 240 MB of columns).
-        let io = |source| RecordingError::Io {
-            path: path.display().to_string(),
-            source,
+        let open = || -> std::io::Result<Box<dyn std::io::BufRead>> {
+            Ok(Box::new(std::io::BufReader::with_capacity(
+                1 << 16,
+                std::fs::File::open(path)?,
+            )))
         };
-        let lines = || -> Result<_, RecordingError> {
-            let f = std::fs::File::open(path).map_err(io)?;
-            Ok(std::io::BufReader::new(f)
-                .lines()
-                .map(move |l| l.map_err(io)))
-        };
-        let (mut content, mut total) = (0usize, 0usize);
-        for l in lines()? {
-            let l = l?;
-            total += 1;
-            if is_content(&l) {
-                content += 1;
-            }
-        }
-        Self::parse_lines(lines()?, content, total, &path.display().to_string())
+        super::read::parse_unchecked(&open, &path.display().to_string())
     }
 
-    /// Parses recording text; `origin` names the source in error messages.
+    /// Parses recording text as [`Recording::read_csv`] reads a file; `origin` names the
+    /// source in error messages.
     pub fn parse_csv(text: &str, origin: &str) -> Result<Recording, RecordingError> {
-        let content = text.lines().filter(|l| is_content(l)).count();
-        Self::parse_lines(
-            text.lines().map(|l| Ok(l.to_string())),
-            content,
-            text.lines().count(),
-            origin,
-        )
-    }
-
-    /// Parses the lines of a recording (`content_lines` of them neither comments nor blank,
-    /// `total_lines` in all); `origin` names the source in error messages.
-    fn parse_lines(
-        lines: impl Iterator<Item = Result<String, RecordingError>>,
-        content_lines: usize,
-        total_lines: usize,
-        origin: &str,
-    ) -> Result<Recording, RecordingError> {
-        let err = |line: usize, column: usize, message: String| RecordingError::Format {
-            path: origin.to_string(),
-            line,
-            column,
-            message,
-        };
-        let mut rec = Recording::default();
-        let mut header: Option<Vec<String>> = None;
-        // Column index of each interpreted column; extras get the rest.
-        let (mut i_time, mut i_rate, mut i_temp, mut i_chamber) = (0, 0, 0, None);
-        let mut extra_idx: Vec<usize> = Vec::new();
-        let mut chamber = Vec::new();
-        let mut last_time: Option<(f64, usize)> = None;
-        for (k, raw) in lines.enumerate() {
-            let raw = raw?;
-            let line_no = k + 1;
-            let line = raw.trim_end_matches('\r');
-            if let Some(c) = line.strip_prefix('#') {
-                rec.comments.push(c.to_string());
-                continue;
-            }
-            if line.trim().is_empty() {
-                continue;
-            }
-            let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-            let Some(names) = &header else {
-                let names: Vec<String> = fields.iter().map(|s| s.to_string()).collect();
-                let find = |want: &str| names.iter().position(|n| n == want);
-                for (j, n) in names.iter().enumerate() {
-                    if n.is_empty() {
-                        return Err(err(line_no, j + 1, "empty column name in header".into()));
-                    }
-                    if names[..j].contains(n) {
-                        return Err(err(line_no, j + 1, format!("duplicate column `{n}`")));
-                    }
-                }
-                for want in ["time_s", "rate_dph", "temp_c"] {
-                    if find(want).is_none() {
-                        return Err(err(
-                            line_no,
-                            0,
-                            format!("missing required column `{want}` in header `{line}`"),
-                        ));
-                    }
-                }
-                i_time = find("time_s").unwrap_or(0);
-                i_rate = find("rate_dph").unwrap_or(0);
-                i_temp = find("temp_c").unwrap_or(0);
-                i_chamber = find("chamber_c");
-                for (j, n) in names.iter().enumerate() {
-                    if ![Some(i_time), Some(i_rate), Some(i_temp), i_chamber].contains(&Some(j)) {
-                        extra_idx.push(j);
-                        rec.extra.push((n.clone(), Vec::new()));
-                    }
-                }
-                // Reserving for every row spares the columns the doubling growth, which can
-                // leave each with up to twice the memory it needs (~540 MB instead of 320 MB
-                // for 10⁷ samples of four columns).
-                let rows = content_lines.saturating_sub(1);
-                for col in [&mut rec.time_s, &mut rec.rate_dph, &mut rec.temp_c] {
-                    col.reserve_exact(rows);
-                }
-                if i_chamber.is_some() {
-                    chamber.reserve_exact(rows);
-                }
-                for (_, col) in &mut rec.extra {
-                    col.reserve_exact(rows);
-                }
-                header = Some(names);
-                continue;
-            };
-            if fields.len() != names.len() {
-                return Err(err(
-                    line_no,
-                    0,
-                    format!(
-                        "row has {} fields, expected {} as in the header",
-                        fields.len(),
-                        names.len()
-                    ),
-                ));
-            }
-            let num = |j: usize| -> Result<f64, RecordingError> {
-                let f = fields[j];
-                match f.parse::<f64>() {
-                    Ok(v) if v.is_finite() => Ok(v),
-                    Ok(_) => Err(err(
-                        line_no,
-                        j + 1,
-                        format!("`{}` is `{f}`, expected a finite number", names[j]),
-                    )),
-                    Err(_) => Err(err(
-                        line_no,
-                        j + 1,
-                        format!("`{}` is `{f}`, expected a number", names[j]),
-                    )),
-                }
-            };
-            let t = num(i_time)?;
-            if let Some((prev, prev_line)) = last_time {
-                if t <= prev {
-                    return Err(err(
-                        line_no,
-                        i_time + 1,
-                        format!(
-                            "time_s {t} does not increase (line {prev_line} has {prev}); expected strictly increasing times"
-                        ),
-                    ));
-                }
-            }
-            last_time = Some((t, line_no));
-            rec.time_s.push(t);
-            rec.rate_dph.push(num(i_rate)?);
-            rec.temp_c.push(num(i_temp)?);
-            if let Some(j) = i_chamber {
-                chamber.push(num(j)?);
-            }
-            for (slot, &j) in rec.extra.iter_mut().zip(&extra_idx) {
-                slot.1.push(fields[j].to_string());
-            }
-        }
-        if header.is_none() {
-            return Err(err(
-                total_lines.max(1),
-                0,
-                "empty file: expected a header row".into(),
-            ));
-        }
-        if rec.is_empty() {
-            return Err(err(
-                total_lines.max(1),
-                0,
-                "no data rows after the header".into(),
-            ));
-        }
-        if i_chamber.is_some() {
-            rec.chamber_c = Some(chamber);
-        }
-        Ok(rec)
+        let open =
+            || -> std::io::Result<Box<dyn std::io::BufRead + '_>> { Ok(Box::new(text.as_bytes())) };
+        super::read::parse_unchecked(&open, origin)
     }
 
     /// Checks that every column has one entry per sample and that extra fields can be
@@ -277,11 +113,6 @@ impl Recording {
             })?;
         write_atomic(path, text.as_bytes())
     }
-}
-
-/// A line of a recording that is neither a comment (`#`) nor blank: the header or a row.
-fn is_content(line: &str) -> bool {
-    !line.starts_with('#') && !line.trim().is_empty()
 }
 
 /// Writes `bytes` to `path` atomically ([`crate::atomic::write`]).

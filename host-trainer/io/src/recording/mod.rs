@@ -4,12 +4,19 @@
 //! `time_s` (s, strictly increasing, not necessarily uniform), `rate_dph` (gyro output, °/h),
 //! `temp_c` (gyro temperature sensor, °C). Optional: `chamber_c` (chamber air, °C). Column
 //! order is free; unknown columns are kept and written back unchanged.
+//!
+//! The reader also takes what rigs and loggers write ([`read_axes`]): other separators,
+//! decimal commas, a byte-order mark, units rows and header units, columns named by flag, and
+//! several gyro axes in one file.
 
 mod csv;
+mod plausible;
+mod read;
 mod units;
 
 pub use csv::write_atomic;
-pub use units::{RateUnit, TempUnit, TimeUnit, UnitChoice, Units, UnitsGiven};
+pub use read::{parse_axes, read_axes, Axes, Axis, ColumnRef, Delimiter, ReadOptions};
+pub use units::{RateUnit, TempUnit, TimeUnit, UnitChoice, UnitName, Units, UnitsGiven};
 
 /// One recording, column-major.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -52,6 +59,16 @@ pub enum RecordingError {
         /// What was found and what was expected.
         message: String,
     },
+    /// The options contradict each other or the file (decimal commas in a comma-separated
+    /// file, two temperature columns for three rate columns, one column in two roles); the
+    /// message names the flags.
+    #[error("{path}: {message}")]
+    Options {
+        /// The file.
+        path: String,
+        /// What contradicts what, and the flags that fix it.
+        message: String,
+    },
     /// Columns whose values look like another unit than the one they are read in; each
     /// problem names the column and the flag that converts it.
     #[error("{path}: {}", .problems.join("; "))]
@@ -78,6 +95,24 @@ impl From<Recording> for std::borrow::Cow<'_, Recording> {
 }
 
 impl Recording {
+    /// Reads a recording with the format's columns (`time_s`, `rate_dph`, `temp_c`) in the
+    /// units chosen, refusing implausible ones (every reason and the flag that converts it in
+    /// one error): [`read_axes`] with those units. Returns the recording and the warnings that
+    /// do not stop a command ([`Recording::unit_warnings`]), for the caller to show.
+    pub fn read_checked(
+        path: &std::path::Path,
+        units: &UnitChoice,
+    ) -> Result<(Recording, Vec<String>), RecordingError> {
+        let opts = ReadOptions {
+            units: *units,
+            ..ReadOptions::default()
+        };
+        let axes = read_axes(path, &opts)?;
+        // The default options read one rate column.
+        let rec = axes.axes.into_iter().next().map(|a| a.recording);
+        Ok((rec.unwrap_or_default(), axes.warnings))
+    }
+
     /// Number of samples.
     pub fn len(&self) -> usize {
         self.time_s.len()

@@ -1,128 +1,45 @@
-//! The units a recording's columns were written in: conversion to the format's (s, °C,
-//! °/h), and the plausibility checks that refuse a column which looks like another unit.
+//! The units a recording's columns can be written in, their names (as flags, header suffixes
+//! and units rows write them) and the conversion to the format's (s, °/h, °C).
 
-use std::path::Path;
+/// A unit of one kind of column, known by the names files and flags write it with.
+pub trait UnitName: Copy + Sized + 'static {
+    /// Every unit of the kind, in the order help texts list them.
+    const ALL: &'static [Self];
+    /// What the unit measures, for messages (`time`, `rate`, `temperature`).
+    const KIND: &'static str;
+    /// The flag that states the unit of such columns.
+    const FLAG: &'static str;
 
-use super::{Recording, RecordingError};
+    /// The names the unit is written with; the first is the canonical one (the flag value
+    /// messages suggest), the others are accepted aliases.
+    fn names(self) -> &'static [&'static str];
 
-impl Recording {
-    /// Columns whose values look like another unit than the file format's (seconds, °C,
-    /// °/h), each with the reason and the flag that converts it; empty when all is plausible.
-    /// A temperature column whose median is above 150 looks like Kelvin; a rate whose values
-    /// all stay within ±1e-3 looks like rad/s (an RLG's bias and the Earth rate are several
-    /// °/h, i.e. 1e-5 … 1e-4 rad/s, and the 1 s noise alone exceeds 1e-3 °/h); a median time
-    /// step above 100 s looks like milliseconds (1 Hz in ms steps by 1000) when the record would
-    /// then span over 20 days or its stamps are whole multiples of 10 as a millisecond clock
-    /// writes them (burst or plateau means minutes apart, with their fractional mean times, are
-    /// seconds); one below 10 µs looks like another unit. A column whose unit the user gave is not second-guessed: the
-    /// caller skips it (`checked`).
-    pub fn unit_errors(&self, checked: UnitsGiven) -> Vec<String> {
-        let mut out = Vec::new();
-        let median = |v: &[f64]| {
-            let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-            s.sort_by(f64::total_cmp);
-            s.get(s.len() / 2).copied()
-        };
-        if !checked.temp {
-            for (name, col) in [
-                ("temp_c", Some(&self.temp_c)),
-                ("chamber_c", self.chamber_c.as_ref()),
-            ] {
-                if let Some(m) = col.and_then(|c| median(c)).filter(|m| *m > 150.0) {
-                    out.push(format!(
-                        "{name}: median {m:.2} looks like kelvin, not °C: convert with \
-                         --temp-unit k (or --temp-unit c if the values are right)"
-                    ));
-                }
-            }
-        }
-        let peak = self
-            .rate_dph
+    /// What the unit is, in words, for help texts.
+    fn describe(self) -> &'static str;
+
+    /// The canonical name.
+    fn name(self) -> &'static str {
+        self.names()[0]
+    }
+
+    /// The unit a name (a flag value, a header suffix, a units-row field) stands for:
+    /// case-insensitive, surrounding brackets and spaces ignored (`[rad/s]`, `(degC)`, `°C`).
+    fn parse(text: &str) -> Option<Self> {
+        let t = strip_brackets(text).to_lowercase();
+        Self::ALL
             .iter()
-            .filter(|v| v.is_finite())
-            .fold(0.0f64, |a, v| a.max(v.abs()));
-        if !checked.rate && !self.rate_dph.is_empty() && peak < 1e-3 {
-            out.push(format!(
-                "rate_dph: every value within ±{peak:.1e}, which looks like rad/s, not °/h: \
-                 convert with --rate-unit rad-s (or --rate-unit dph if the values are right)"
-            ));
-        }
-        let steps: Vec<f64> = self.time_s.windows(2).map(|w| w[1] - w[0]).collect();
-        if let (false, Some(step)) = (checked.time, median(&steps)) {
-            let span = self.time_s.last().unwrap_or(&0.0) - self.time_s.first().unwrap_or(&0.0);
-            let whole = self.time_s.iter().all(|t| t.fract() == 0.0);
-            if step > 100.0 && (span > 20.0 * 86_400.0 || (whole && step % 10.0 == 0.0)) {
-                out.push(format!(
-                    "time_s: median step {step} looks like milliseconds, not seconds: convert \
-                     with --time-unit ms (or --time-unit s if the steps are right)"
-                ));
-            } else if step < 1e-5 {
-                out.push(format!(
-                    "time_s: median step {step} s is below 10 µs: convert with --time-unit \
-                     ms|us, or give --time-unit s if the steps are right"
-                ));
-            }
-        }
-        out
-    }
-
-    /// Converts the columns from the units `u` the file was written in to seconds, °C and
-    /// °/h.
-    pub fn convert_units(&mut self, u: Units) {
-        let scale = |v: &mut Vec<f64>, k: f64, add: f64| {
-            if k != 1.0 || add != 0.0 {
-                v.iter_mut().for_each(|x| *x = *x * k + add);
-            }
-        };
-        scale(&mut self.time_s, u.time.to_seconds(), 0.0);
-        let (k, add) = u.temp.to_celsius();
-        scale(&mut self.temp_c, k, add);
-        if let Some(c) = self.chamber_c.as_mut() {
-            scale(c, k, add);
-        }
-        scale(&mut self.rate_dph, u.rate.to_dph(), 0.0);
-    }
-
-    /// Warnings that do not stop a command: gaps (steps over 1.5 × the median). Empty when
-    /// there are none.
-    pub fn unit_warnings(&self) -> Vec<String> {
-        let mut out = Vec::new();
-        let mut steps: Vec<f64> = self.time_s.windows(2).map(|w| w[1] - w[0]).collect();
-        let all = steps.clone();
-        steps.sort_by(f64::total_cmp);
-        if let Some(&step) = steps.get(steps.len() / 2) {
-            let gaps = all.iter().filter(|s| **s > 1.5 * step).count();
-            if gaps > 0 {
-                out.push(format!(
-                    "time_s: {gaps} gap(s) longer than 1.5 sample periods; features bridge them as the board bridges missing samples; held-out 100 s stabilities never average across a gap (metrics::gapless_block_means); the diagnosis averages consecutive samples, or each burst of a record sampled in bursts"
-                ));
-            }
-        }
-        out
+            .copied()
+            .find(|u| u.names().iter().any(|n| n.to_lowercase() == t))
     }
 }
 
-/// Which columns' units the user stated (those are not second-guessed by
-/// [`Recording::unit_errors`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct UnitsGiven {
-    /// The time unit was given.
-    pub time: bool,
-    /// The temperature unit was given.
-    pub temp: bool,
-    /// The rate unit was given.
-    pub rate: bool,
-}
-
-/// The units a recording's columns were written in ([`Recording::convert_units`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Units {
-    /// Time column.
-    pub time: TimeUnit,
-    /// Temperature columns.
-    pub temp: TempUnit,
-    /// Rate column.
-    pub rate: RateUnit,
+/// `text` without surrounding spaces and one pair of surrounding brackets or parentheses.
+fn strip_brackets(text: &str) -> &str {
+    let t = text.trim();
+    t.strip_prefix('[')
+        .and_then(|s| s.strip_suffix(']'))
+        .or_else(|| t.strip_prefix('(').and_then(|s| s.strip_suffix(')')))
+        .map_or(t, str::trim)
 }
 
 /// Unit of the time column.
@@ -135,14 +52,44 @@ pub enum TimeUnit {
     Ms,
     /// Microseconds.
     Us,
+    /// Nanoseconds.
+    Ns,
 }
 
 impl TimeUnit {
-    fn to_seconds(self) -> f64 {
+    /// Stamps per second: a stamp difference divided by this is seconds (a division, so that
+    /// whole stamps convert to the nearest f64 second).
+    pub fn per_second(self) -> f64 {
         match self {
             TimeUnit::S => 1.0,
-            TimeUnit::Ms => 1e-3,
-            TimeUnit::Us => 1e-6,
+            TimeUnit::Ms => 1e3,
+            TimeUnit::Us => 1e6,
+            TimeUnit::Ns => 1e9,
+        }
+    }
+}
+
+impl UnitName for TimeUnit {
+    const ALL: &'static [Self] = &[TimeUnit::S, TimeUnit::Ms, TimeUnit::Us, TimeUnit::Ns];
+    const KIND: &'static str = "time";
+    const FLAG: &'static str = "--time-unit";
+
+    fn names(self) -> &'static [&'static str] {
+        match self {
+            TimeUnit::S => &["s", "sec", "secs", "second", "seconds"],
+            TimeUnit::Ms => &["ms", "msec", "millisecond", "milliseconds"],
+            // The micro sign (U+00B5) and the Greek mu (U+03BC) look alike; files use both.
+            TimeUnit::Us => &["us", "µs", "μs", "usec", "microsecond", "microseconds"],
+            TimeUnit::Ns => &["ns", "nsec", "nanosecond", "nanoseconds"],
+        }
+    }
+
+    fn describe(self) -> &'static str {
+        match self {
+            TimeUnit::S => "seconds",
+            TimeUnit::Ms => "milliseconds",
+            TimeUnit::Us => "microseconds",
+            TimeUnit::Ns => "nanoseconds",
         }
     }
 }
@@ -155,51 +102,139 @@ pub enum TempUnit {
     C,
     /// Kelvin.
     K,
+    /// Degrees Fahrenheit.
+    F,
 }
 
 impl TempUnit {
-    /// (factor, offset) to °C.
-    fn to_celsius(self) -> (f64, f64) {
+    /// (factor, offset) to °C: `c = x · factor + offset`.
+    pub fn to_celsius(self) -> (f64, f64) {
         match self {
             TempUnit::C => (1.0, 0.0),
             TempUnit::K => (1.0, -273.15),
+            TempUnit::F => (5.0 / 9.0, -32.0 * 5.0 / 9.0),
         }
     }
 }
 
-/// Unit of the rate column.
+impl UnitName for TempUnit {
+    const ALL: &'static [Self] = &[TempUnit::C, TempUnit::K, TempUnit::F];
+    const KIND: &'static str = "temperature";
+    const FLAG: &'static str = "--temp-unit";
+
+    fn names(self) -> &'static [&'static str] {
+        match self {
+            TempUnit::C => &["c", "degc", "°c", "deg c", "deg_c", "celsius", "℃"],
+            TempUnit::K => &["k", "kelvin"],
+            TempUnit::F => &["f", "degf", "°f", "deg f", "deg_f", "fahrenheit", "℉"],
+        }
+    }
+
+    fn describe(self) -> &'static str {
+        match self {
+            TempUnit::C => "degrees Celsius",
+            TempUnit::K => "kelvin",
+            TempUnit::F => "degrees Fahrenheit",
+        }
+    }
+}
+
+/// Unit of the rate columns.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum RateUnit {
     /// Degrees per hour (the format's).
     #[default]
     Dph,
+    /// Degrees per second.
+    Dps,
     /// Radians per second.
     RadS,
-    /// Degrees per second.
-    DegS,
+    /// Millidegrees per second.
+    Mdps,
+    /// Milliradians per second.
+    MradS,
 }
 
 impl RateUnit {
-    fn to_dph(self) -> f64 {
+    /// The factor to °/h.
+    pub fn to_dph(self) -> f64 {
+        // rad → °: × 180/π; per second → per hour: × 3600.
+        let rad_s = 3600.0 * 180.0 / std::f64::consts::PI;
         match self {
             RateUnit::Dph => 1.0,
-            // rad/s → °/h: × 180/π × 3600.
-            RateUnit::RadS => 3600.0 * 180.0 / std::f64::consts::PI,
-            RateUnit::DegS => 3600.0,
+            RateUnit::Dps => 3600.0,
+            RateUnit::RadS => rad_s,
+            RateUnit::Mdps => 3.6,
+            RateUnit::MradS => rad_s * 1e-3,
         }
     }
 }
 
-/// The units a user stated for a recording's columns; `None` for a column means the format's
-/// unit (s, °C, °/h), checked for plausibility by [`Recording::read_checked`]. A unit given is
-/// trusted.
+impl UnitName for RateUnit {
+    const ALL: &'static [Self] = &[
+        RateUnit::Dph,
+        RateUnit::Dps,
+        RateUnit::RadS,
+        RateUnit::Mdps,
+        RateUnit::MradS,
+    ];
+    const KIND: &'static str = "rate";
+    const FLAG: &'static str = "--rate-unit";
+
+    fn names(self) -> &'static [&'static str] {
+        match self {
+            RateUnit::Dph => &["dph", "deg/h", "°/h", "deg/hr", "deg-h", "deg_h"],
+            RateUnit::Dps => &["dps", "deg/s", "°/s", "deg/sec", "deg-s", "deg_s"],
+            RateUnit::RadS => &["rad/s", "rad-s", "rad_s", "rads", "rad/sec"],
+            RateUnit::Mdps => &["mdps", "mdeg/s", "mdeg-s", "mdeg_s"],
+            RateUnit::MradS => &["mrad/s", "mrad-s", "mrad_s", "mrads"],
+        }
+    }
+
+    fn describe(self) -> &'static str {
+        match self {
+            RateUnit::Dph => "degrees per hour",
+            RateUnit::Dps => "degrees per second",
+            RateUnit::RadS => "radians per second",
+            RateUnit::Mdps => "millidegrees per second",
+            RateUnit::MradS => "milliradians per second",
+        }
+    }
+}
+
+/// Which columns' units the user stated (those are not second-guessed by
+/// [`super::Recording::unit_errors`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct UnitsGiven {
+    /// The time unit was given.
+    pub time: bool,
+    /// The temperature unit was given.
+    pub temp: bool,
+    /// The rate unit was given.
+    pub rate: bool,
+}
+
+/// The units a recording's columns were written in ([`super::Recording::convert_units`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Units {
+    /// Time column.
+    pub time: TimeUnit,
+    /// Temperature columns.
+    pub temp: TempUnit,
+    /// Rate column.
+    pub rate: RateUnit,
+}
+
+/// The units a user stated for a recording's columns (flags); `None` for a column means the
+/// unit its header or units row states, else the format's (s, °C, °/h), checked for
+/// plausibility. A unit given is trusted.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct UnitChoice {
     /// Unit of the time column.
     pub time: Option<TimeUnit>,
     /// Unit of the temperature columns.
     pub temp: Option<TempUnit>,
-    /// Unit of the rate column.
+    /// Unit of the rate columns.
     pub rate: Option<RateUnit>,
 }
 
@@ -223,97 +258,44 @@ impl UnitChoice {
     }
 }
 
-impl Recording {
-    /// Reads a recording, converts it from the units chosen and refuses implausible ones (every
-    /// reason and the flag that converts it in one error). Returns the recording and the
-    /// warnings that do not stop a command ([`Recording::unit_warnings`]), for the caller to
-    /// show.
-    pub fn read_checked(
-        path: &Path,
-        units: &UnitChoice,
-    ) -> Result<(Recording, Vec<String>), RecordingError> {
-        let mut rec = Recording::read_csv(path)?;
-        rec.convert_units(units.units());
-        let problems = rec.unit_errors(units.given());
-        if !problems.is_empty() {
-            return Err(RecordingError::Units {
-                path: path.display().to_string(),
-                problems,
-            });
-        }
-        let warnings = rec.unit_warnings();
-        Ok((rec, warnings))
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// Kelvin temperatures, a rate in rad/s and millisecond time stamps are each refused
-    /// with the flag that converts them; converted, the same recording passes; a unit the
-    /// user gave is not second-guessed; a gap is a warning. Plausible data give nothing.
+    /// Every alias names its own unit and no other: a name shared by two units would make a
+    /// header suffix ambiguous.
     #[test]
-    fn burst_means_minutes_apart_are_seconds() {
-        // One mean per burst of 250 samples at 50 Hz every 300 s: mean times 2.49 s into each
-        // burst, over 8 h. A millisecond clock would write whole numbers.
-        let t: Vec<f64> = (0..96).map(|k| 300.0 * f64::from(k) + 2.49).collect();
-        let rec = Recording {
-            rate_dph: vec![-7000.0; t.len()],
-            temp_c: vec![20.0; t.len()],
-            time_s: t,
-            ..Recording::default()
-        };
-        assert!(rec.unit_errors(UnitsGiven::default()).is_empty());
-        let ms = Recording {
-            time_s: rec.time_s.iter().map(|t| (t * 1000.0).round()).collect(),
-            ..rec.clone()
-        };
-        assert_eq!(ms.unit_errors(UnitsGiven::default()).len(), 1);
+    fn names_parse_back_to_their_unit() {
+        fn check<U: UnitName + PartialEq + std::fmt::Debug>() {
+            for &u in U::ALL {
+                for n in u.names() {
+                    assert_eq!(U::parse(n), Some(u), "{n}");
+                    assert_eq!(U::parse(&format!(" [{}] ", n.to_uppercase())), Some(u));
+                }
+            }
+        }
+        check::<TimeUnit>();
+        check::<RateUnit>();
+        check::<TempUnit>();
+        assert_eq!(RateUnit::parse("dps"), Some(RateUnit::Dps));
+        assert_eq!(TempUnit::parse("(degC)"), Some(TempUnit::C));
+        assert_eq!(TempUnit::parse("°C"), Some(TempUnit::C));
+        assert_eq!(TimeUnit::parse("µs"), Some(TimeUnit::Us));
+        assert_eq!(TimeUnit::parse("rad/s"), None);
+        assert_eq!(RateUnit::parse("g"), None);
     }
 
+    /// The conversions against hand-computed values: 1 rad/s is 206 264.8 °/h (the arcseconds
+    /// in a radian), 1 °/s is 3600 °/h, 212 °F is 100 °C.
     #[test]
-    fn implausible_units_are_refused_with_the_flag() {
-        let ok = Recording {
-            time_s: vec![0.0, 1.0, 2.0, 3.0],
-            rate_dph: vec![-7.1, -7.11, -7.09, -7.1],
-            temp_c: vec![25.0, 25.1, 25.2, 25.3],
-            ..Recording::default()
-        };
-        assert!(ok.unit_errors(UnitsGiven::default()).is_empty());
-        assert!(ok.unit_warnings().is_empty(), "{:?}", ok.unit_warnings());
-        let mut bad = Recording {
-            time_s: vec![0.0, 1000.0, 2000.0, 5000.0],
-            rate_dph: vec![-3.4e-5, -3.5e-5, -3.4e-5, -3.3e-5],
-            temp_c: vec![298.15, 298.25, 298.35, 298.45],
-            ..Recording::default()
-        };
-        let e = bad.unit_errors(UnitsGiven::default()).join("\n");
-        for want in [
-            "temp_c: median 298",
-            "--temp-unit k",
-            "rad/s",
-            "--rate-unit rad-s",
-            "milliseconds",
-            "--time-unit ms",
-        ] {
-            assert!(e.contains(want), "{want} missing in:\n{e}");
-        }
-        let given = UnitsGiven {
-            time: true,
-            temp: true,
-            rate: true,
-        };
-        assert!(bad.unit_errors(given).is_empty());
-        bad.convert_units(Units {
-            time: TimeUnit::Ms,
-            temp: TempUnit::K,
-            rate: RateUnit::RadS,
-        });
-        assert!(bad.unit_errors(UnitsGiven::default()).is_empty());
-        assert_eq!(bad.time_s, vec![0.0, 1.0, 2.0, 5.0]);
-        assert!((bad.temp_c[0] - 25.0).abs() < 1e-9, "{:?}", bad.temp_c);
-        assert!((bad.rate_dph[0] + 7.013).abs() < 1e-3, "{:?}", bad.rate_dph);
-        assert!(bad.unit_warnings().join("").contains("1 gap"));
+    fn conversions_match_hand_values() {
+        assert!((RateUnit::RadS.to_dph() - 206_264.806_247).abs() < 1e-6);
+        assert!((RateUnit::MradS.to_dph() - 206.264_806).abs() < 1e-6);
+        assert_eq!(RateUnit::Dps.to_dph(), 3600.0);
+        assert_eq!(RateUnit::Mdps.to_dph(), 3.6);
+        let (k, add) = TempUnit::F.to_celsius();
+        assert!((212.0 * k + add - 100.0).abs() < 1e-12);
+        assert!((32.0 * k + add).abs() < 1e-12);
+        assert_eq!(1_500_000.0 / TimeUnit::Us.per_second(), 1.5);
     }
 }
