@@ -20,7 +20,8 @@ use crate::sets::TrainingSets;
 /// A table may depart in f32 by this fraction of the record's 1 s noise whatever the export
 /// limit: a MEMS gyro of a few hundred °/h of noise and thousands of °/h of bias gains nothing
 /// from a table exact to 5e-5 °/h, and a departure a thousandth of the noise adds a millionth
-/// of its variance.
+/// of its variance. (A hundredth would still be harmless, but would loosen an RLG's limit,
+/// whose 1 s noise is about a hundredth of a °/h.)
 pub const NOISE_FRACTION: f64 = 1e-3;
 
 /// The board table, tuned as the table it is: a fixed-size model of `budget` vectors scored

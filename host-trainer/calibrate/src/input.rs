@@ -63,13 +63,14 @@ pub fn at_board_rate<'a>(
              trained from it; give --static for a temperature-only model on the burst means",
             describe_bursts(&b)
         ))),
-        Sampling::Stream { step_s } if step_s < 0.9 && step_s >= 0.999 / MAX_RATE_HZ => {
+        Sampling::Stream { step_s } if (0.999 / MAX_RATE_HZ..0.9).contains(&step_s) => {
             let (means, report) = bin_means(&rec, 1.0).map_err(|e| {
                 CalibrateError::Input(format!("{what}: averaging to 1 s means: {e}"))
             })?;
             notes.push(format!(
-                "{what} is sampled every {step_s:.4} s ({:.0} Hz): it is averaged to 1 s means \
+                "{} is sampled every {step_s:.4} s ({:.0} Hz): it is averaged to 1 s means \
                  (the board's rate) before anything else, {} samples into {}.",
+                capitalised(what),
                 1.0 / step_s,
                 report.input_samples,
                 report.output_samples
@@ -102,8 +103,9 @@ pub fn for_static<'a>(
         Sampling::Bursts(b) => {
             let (means, _) = burst_means(rec, BURST_GAP).map_err(reduce)?;
             notes.push(format!(
-                "{what} is sampled in bursts ({}): each burst is one point, its mean time, rate \
+                "{} is sampled in bursts ({}): each burst is one point, its mean time, rate \
                  and temperature.",
+                capitalised(what),
                 describe_bursts(&b)
             ));
             Ok(Cow::Owned(means))
@@ -111,10 +113,19 @@ pub fn for_static<'a>(
         Sampling::Stream { step_s } if step_s < 0.9 => {
             let (means, _) = bin_means(rec, 1.0).map_err(reduce)?;
             notes.push(format!(
-                "{what} is sampled every {step_s:.4} s: averaged to 1 s means first."
+                "{} is sampled every {step_s:.4} s: averaged to 1 s means first.",
+                capitalised(what)
             ));
             Ok(Cow::Owned(means))
         }
         Sampling::Stream { .. } => Ok(Cow::Borrowed(rec)),
     }
+}
+
+/// `what` with its first letter in capitals, to open a note.
+fn capitalised(what: &str) -> String {
+    let mut c = what.chars();
+    c.next()
+        .map(|f| f.to_uppercase().chain(c).collect())
+        .unwrap_or_default()
 }

@@ -95,6 +95,9 @@ pub struct StaticCalibration {
     pub held_out_rms_dph: Option<(f64, f64)>,
     /// Test points, when given.
     pub test_points: Vec<(f64, f64)>,
+    /// How the logs were reduced before the points were taken (bursts to their means, a fast
+    /// stream to 1 s means); empty when read as they are.
+    pub notes: Vec<String>,
 }
 
 /// The (T, output) points of `rec` (see the module doc).
@@ -395,7 +398,9 @@ pub fn calibrate_static(
         opts.budget,
         crate::MAX_BUDGET
     );
-    let p = checked_points(cal, opts.block)?;
+    let mut notes = Vec::new();
+    let cal = crate::input::for_static(cal, "the calibration recording", &mut notes)?;
+    let p = checked_points(&cal, opts.block)?;
     let n = p.raw.len();
     let validation = validation_for(n);
     let folds = match &validation {
@@ -426,7 +431,8 @@ pub fn calibrate_static(
 
     let (test_points, held_out_rms_dph) = match test {
         Some(r) => {
-            let (tp, _) = points_of(r, opts.block)?;
+            let r = crate::input::for_static(r, "the test recording", &mut notes)?;
+            let (tp, _) = points_of(&r, opts.block)?;
             let e = |f: &dyn Fn(f64) -> f64| {
                 rms(&tp.iter().map(|(t, y)| y - f(*t)).collect::<Vec<_>>()).unwrap_or(f64::NAN)
             };
@@ -454,5 +460,6 @@ pub fn calibrate_static(
         f32_limit_dph: prec.limit_dph,
         held_out_rms_dph,
         test_points,
+        notes,
     })
 }

@@ -8,9 +8,13 @@ use clap::Args;
 use rlg_calibrate::report::{self, FileInfo, Inputs};
 use rlg_calibrate::static_cal::{calibrate_static, StaticOptions};
 use rlg_calibrate::{calibrate, Options};
+use rlg_calibrate::{sampling, Sampling};
 use rlg_closeloop::calibrate_diagnosed;
 use rlg_diagnose::PhysicsModel;
 use rlg_io::progress::progress;
+use rlg_io::recording::{Axis, Recording};
+use rlg_train::export_c::CName;
+use rlg_train::lssvm::tune::Grid;
 use rlg_train::model::Provenance;
 
 /// Arguments of `rlg calibrate`.
@@ -76,9 +80,19 @@ pub struct CalibrateArgs {
     #[arg(long, value_name = "FILE", requires = "diagnose")]
     pub model: Option<PathBuf>,
     /// Static characterisation: a temperature-only model from burst or plateau means (a
-    /// bursty log has no 1 Hz stream, so no dT/dt model).
+    /// bursty log has no 1 Hz stream, so no dT/dt model; one is calibrated so without the
+    /// flag, with a note).
     #[arg(long = "static")]
     pub static_only: bool,
+    /// Prefix of the C header's symbols (`rlg` → `rlg_support`, `RLG_N`); with --every-axis
+    /// each axis' header takes `{NAME}_{axis}`, so the headers of one IMU compile together.
+    #[arg(long, value_name = "NAME", default_value = CName::DEFAULT)]
+    pub name: CName,
+    /// Calibrate every gyro axis of the recording (the columns --rate-col names, else every
+    /// column with a gyro's name), each into its own folder `--out/{axis}/`, with `imu.h`
+    /// including their headers.
+    #[arg(long)]
+    pub every_axis: bool,
 }
 
 fn file_info(path: &Path, samples: usize) -> anyhow::Result<FileInfo> {
@@ -94,81 +108,263 @@ fn file_info(path: &Path, samples: usize) -> anyhow::Result<FileInfo> {
 pub fn run(a: &CalibrateArgs, command_line: &str) -> anyhow::Result<()> {
     // The folder first: a path that cannot hold it fails before minutes of work.
     report::prepare_dir(&a.out)?;
+    let grid = grid_of(a.c_min)?;
+    if a.test.as_ref() == Some(&a.recording) {
+        anyhow::bail!(
+            "--test {} is the calibration recording itself: held-out figures need another \
+             recording (or leave --test out to hold out the later cycles)",
+            a.recording.display()
+        );
+    }
+    if !a.every_axis {
+        let cal = super::read_recording(&a.recording, &a.input)?;
+        let test = match &a.test {
+            Some(p) => Some(super::read_recording(p, &a.input)?),
+            None => None,
+        };
+        let job = Job {
+            args: a,
+            command_line,
+            grid: &grid,
+        };
+        return job.axis(&cal, test.as_ref(), &a.out, &a.name, &[]);
+    }
+    every_axis(a, command_line, &grid)
+}
+
+/// The tuning grid with `--c-min` as its smallest c.
+fn grid_of(c_min: f64) -> anyhow::Result<Grid> {
+    let mut grid = Grid::default();
     anyhow::ensure!(
-        a.c_min > 0.0 && a.c_min.is_finite(),
-        "--c-min {}: c must be positive",
-        a.c_min
+        c_min > 0.0 && c_min.is_finite(),
+        "--c-min {c_min}: c must be positive"
     );
-    let cal = super::read_recording(&a.recording, &a.input)?;
-    let test = match &a.test {
-        Some(p) => Some(super::read_recording(p, &a.input)?),
-        None => None,
-    };
-    let inputs = Inputs {
-        command: command_line.to_string(),
-        recording: file_info(&a.recording, cal.len())?,
-        test_recording: match (&a.test, &test) {
-            (Some(p), Some(t)) => Some(file_info(p, t.len())?),
-            _ => None,
-        },
-    };
-    let provenance = Provenance::from_file(&a.recording, command_line)?;
-    let mut grid = rlg_train::lssvm::tune::Grid::default();
     anyhow::ensure!(
-        a.c_min < grid.c.1,
-        "--c-min {} is above the grid's largest c {}",
-        a.c_min,
+        c_min < grid.c.1,
+        "--c-min {c_min} is above the grid's largest c {}",
         grid.c.1
     );
-    grid.c.0 = a.c_min;
-    if a.static_only {
+    grid.c.0 = c_min;
+    Ok(grid)
+}
+
+/// The folder and C name of an axis: its column name in lower case, every character that
+/// is not a letter, a digit or '_' as '_' (`imu.gyro.x` → `imu_gyro_x`).
+fn axis_slug(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() {
+                c.to_ascii_lowercase()
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// `--every-axis`: each axis calibrated into its own folder; an axis that fails does not
+/// stop the others, and the command fails naming it.
+fn every_axis(a: &CalibrateArgs, command_line: &str, grid: &Grid) -> anyhow::Result<()> {
+    let axes = super::read_every_axis(&a.recording, &a.input)?.axes;
+    let tests = match &a.test {
+        Some(p) => Some(super::read_every_axis(p, &a.input)?.axes),
+        None => None,
+    };
+    let slugs: Vec<String> = axes.iter().map(|x| axis_slug(&x.name)).collect();
+    for (i, s) in slugs.iter().enumerate() {
+        anyhow::ensure!(
+            !slugs[..i].contains(s),
+            "axes {:?} and {:?} would share the folder and C name {s:?}; name the rate columns \
+             with --rate-col",
+            axes[slugs.iter().position(|o| o == s).unwrap_or(0)].name,
+            axes[i].name
+        );
+    }
+    let job = Job {
+        args: a,
+        command_line,
+        grid,
+    };
+    let mut done = Vec::new();
+    let mut failed = Vec::new();
+    for (axis, slug) in axes.iter().zip(&slugs) {
+        println!(
+            "\n== axis {} ({} of {}) ==",
+            axis.name,
+            done.len() + failed.len() + 1,
+            axes.len()
+        );
+        let test = match &tests {
+            Some(t) => Some(test_axis(t, &axis.name)?),
+            None => None,
+        };
+        let name = CName::new(&format!("{}_{slug}", a.name))?;
+        let note = format!(
+            "Axis `{}` of `{}` ({} gyro axes in the file, each calibrated on its own).",
+            axis.name,
+            a.recording.display(),
+            axes.len()
+        );
+        match job.axis(&axis.recording, test, &a.out.join(slug), &name, &[note]) {
+            Ok(()) => done.push((slug.clone(), name)),
+            Err(e) => {
+                eprintln!("error: axis {}: {e:#}", axis.name);
+                failed.push(axis.name.clone());
+            }
+        }
+    }
+    if !done.is_empty() {
+        let path = a.out.join("imu.h");
+        rlg_io::atomic::write(&path, imu_header(&done).as_bytes())?;
+        println!(
+            "\nwrote {} (includes the header of each calibrated axis)",
+            path.display()
+        );
+    }
+    anyhow::ensure!(
+        failed.is_empty(),
+        "{} of {} axes failed ({}); the others' folders are written",
+        failed.len(),
+        axes.len(),
+        failed.join(", ")
+    );
+    Ok(())
+}
+
+/// The test recording's axis of the same name.
+fn test_axis<'a>(tests: &'a [Axis], name: &str) -> anyhow::Result<&'a Recording> {
+    tests
+        .iter()
+        .find(|t| t.name == name)
+        .map(|t| &t.recording)
+        .ok_or_else(|| {
+            anyhow::anyhow!(
+                "the test recording has no axis {name:?} (it has {})",
+                tests
+                    .iter()
+                    .map(|t| t.name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        })
+}
+
+/// `imu.h`: one include per calibrated axis, so a firmware takes the IMU's tables at once.
+fn imu_header(axes: &[(String, CName)]) -> String {
+    let mut h = String::from(
+        "/* The board tables of every calibrated gyro axis; written by rlg calibrate \
+         --every-axis. */\n#ifndef RLG_IMU_TABLES_H\n#define RLG_IMU_TABLES_H\n\n",
+    );
+    for (slug, name) in axes {
+        h.push_str(&format!("#include \"{slug}/table.h\" /* {name}_* */\n"));
+    }
+    h.push_str("\n#endif\n");
+    h
+}
+
+/// One calibration's settings.
+struct Job<'a> {
+    args: &'a CalibrateArgs,
+    command_line: &'a str,
+    grid: &'a Grid,
+}
+
+impl Job<'_> {
+    /// Calibrates one axis `cal` (and its `test`) into `out`, its C header's symbols prefixed
+    /// `name`; `notes` go to the report first.
+    fn axis(
+        &self,
+        cal: &Recording,
+        test: Option<&Recording>,
+        out: &Path,
+        name: &CName,
+        notes: &[String],
+    ) -> anyhow::Result<()> {
+        let a = self.args;
+        let inputs = Inputs {
+            command: self.command_line.to_string(),
+            recording: file_info(&a.recording, cal.len())?,
+            test_recording: match (&a.test, test) {
+                (Some(p), Some(t)) => Some(file_info(p, t.len())?),
+                _ => None,
+            },
+        };
+        let provenance = Provenance::from_file(&a.recording, self.command_line)?;
+        let bursty = matches!(sampling(cal), Sampling::Bursts(_));
+        if a.static_only || (bursty && !a.diagnose) {
+            if bursty && !a.static_only {
+                println!(
+                    "note: the recording is sampled in bursts: it holds no 1 Hz stream, so the \
+                     model is the static one (temperature only; --static)"
+                );
+            }
+            return self.static_axis(cal, test, (&inputs, &provenance), out, name, notes);
+        }
+        let opts = Options {
+            train_cycles: a.train_cycles,
+            window: a.window as usize,
+            block: a.block.map(|b| b as usize),
+            budget: a.budget as usize,
+            rate_tau_s: a.rate_tau_s,
+            grid: *self.grid,
+            from_s: a.from_s,
+            to_s: a.to_s,
+            even_temperature: a.even_temperature,
+            ..Options::default()
+        };
+        let pb = progress("tuning σ, c");
+        let mut c = if a.diagnose {
+            let model = match &a.model {
+                Some(p) => PhysicsModel::read(p)?,
+                None => PhysicsModel::paper(),
+            };
+            calibrate_diagnosed(cal, test, &opts, &model, &provenance, &pb)?
+        } else {
+            calibrate(cal, test, &opts, &provenance, &pb)?
+        };
+        c.notes.splice(0..0, notes.iter().cloned());
+        let files = report::write_named(&c, &inputs, out, name)?;
+        print!("{}{}", report::comparison(&c), report::console_tail(&c));
+        println!(
+            "wrote {} files to {} (report: {})",
+            files.len(),
+            out.display(),
+            out.join("report.md").display()
+        );
+        Ok(())
+    }
+
+    /// The static characterisation of one axis.
+    fn static_axis(
+        &self,
+        cal: &Recording,
+        test: Option<&Recording>,
+        (inputs, provenance): (&Inputs, &Provenance),
+        out: &Path,
+        name: &CName,
+        notes: &[String],
+    ) -> anyhow::Result<()> {
+        let a = self.args;
         let opts = StaticOptions {
             block: a
                 .block
                 .map_or(rlg_train::protocol::TRAIN_BLOCK, |b| b as usize),
             budget: a.budget as usize,
-            grid,
+            grid: *self.grid,
             rate_tau_s: a.rate_tau_s,
         };
         let pb = progress("tuning σ, c (static)");
-        let c = calibrate_static(&cal, test.as_ref(), &opts, &provenance, &pb)?;
-        let files = report::write_static(&c, &inputs, &a.out)?;
+        let mut c = calibrate_static(cal, test, &opts, provenance, &pb)?;
+        c.notes.splice(0..0, notes.iter().cloned());
+        let files = report::write_static_named(&c, inputs, out, name)?;
         print!(
             "{}",
-            report::static_console(&report::static_summary(&c, &inputs, &[]))
+            report::static_console(&report::static_summary(&c, inputs, &[]))
         );
-        println!("wrote {} files to {}", files.len(), a.out.display());
-        return Ok(());
+        for n in &c.notes {
+            println!("note: {n}");
+        }
+        println!("wrote {} files to {}", files.len(), out.display());
+        Ok(())
     }
-    let opts = Options {
-        train_cycles: a.train_cycles,
-        window: a.window as usize,
-        block: a.block.map(|b| b as usize),
-        budget: a.budget as usize,
-        rate_tau_s: a.rate_tau_s,
-        grid,
-        from_s: a.from_s,
-        to_s: a.to_s,
-        even_temperature: a.even_temperature,
-        ..Options::default()
-    };
-    let pb = progress("tuning σ, c");
-    let c = if a.diagnose {
-        let model = match &a.model {
-            Some(p) => PhysicsModel::read(p)?,
-            None => PhysicsModel::paper(),
-        };
-        calibrate_diagnosed(&cal, test.as_ref(), &opts, &model, &provenance, &pb)?
-    } else {
-        calibrate(&cal, test.as_ref(), &opts, &provenance, &pb)?
-    };
-    let files = report::write(&c, &inputs, &a.out)?;
-    print!("{}{}", report::comparison(&c), report::console_tail(&c));
-    println!(
-        "wrote {} files to {} (report: {})",
-        files.len(),
-        a.out.display(),
-        a.out.join("report.md").display()
-    );
-    Ok(())
 }

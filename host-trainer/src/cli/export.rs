@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use rlg_train::export::Format;
+use rlg_train::export_c::CName;
 use rlg_train::model::ModelFile;
 
 /// Arguments of `rlg export`.
@@ -20,6 +21,10 @@ pub struct ExportArgs {
     /// disagree).
     #[arg(long, value_enum, value_name = "LANG")]
     pub format: Option<FormatArg>,
+    /// Prefix of the C header's symbols (`rlg` → `rlg_support`, `RLG_N`): give each gyro its
+    /// own (`rlg_gyro_x`) so that several headers compile into one firmware.
+    #[arg(long, value_name = "NAME", default_value = CName::DEFAULT)]
+    pub name: CName,
 }
 
 /// `--format` values.
@@ -41,7 +46,7 @@ pub fn run(a: &ExportArgs, command_line: &str) -> anyhow::Result<()> {
     let format = Format::resolve(given, &a.out).map_err(anyhow::Error::msg)?;
     super::check_output_file(&a.out, "--out")?;
     let m = ModelFile::read(&a.model)?;
-    rlg_train::export::write_board_table(&m, command_line, &a.out, format)?;
+    rlg_train::export::write_board_table_named(&m, command_line, &a.out, format, &a.name)?;
     println!(
         "wrote {} ({}, {} support vectors, {} features)",
         a.out.display(),

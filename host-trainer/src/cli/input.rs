@@ -105,6 +105,16 @@ pub fn read_recording(path: &Path, input: &InputArgs) -> anyhow::Result<Recordin
         .context("the reader returned no axis")
 }
 
+/// Reads every gyro axis of a recording (`--every-axis`): the rate columns `--rate-col`
+/// names, else every column with a gyro's name.
+pub fn read_every_axis(path: &Path, input: &InputArgs) -> anyhow::Result<Axes> {
+    let mut opts = input.options();
+    opts.every_axis = true;
+    let axes = read_axes(path, &opts)?;
+    print_report(path, &axes);
+    Ok(axes)
+}
+
 /// Reads every axis of a recording as `input` says ([`read_axes`]: implausible units are
 /// refused) and prints on standard error what was detected (`note:`) and the warnings that
 /// do not stop a command (`warning:`), each naming the file.

@@ -20,7 +20,7 @@ pub mod train;
 
 use clap::{Parser, Subcommand};
 
-pub use input::{read_axes_cli, read_recording, InputArgs};
+pub use input::{read_axes_cli, read_every_axis, read_recording, InputArgs};
 
 /// Toolchain for LS-SVM temperature compensation of RLG bias.
 #[derive(Debug, Parser)]

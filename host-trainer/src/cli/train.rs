@@ -161,6 +161,7 @@ mod tests {
             model: model.clone(),
             out: out.to_path_buf(),
             format,
+            name: rlg_train::export_c::CName::default(),
         };
         export::run(&args(&out, None), "rlg export").unwrap();
         let text = std::fs::read_to_string(&out).unwrap();

@@ -201,11 +201,18 @@ fn board(c: &Calibration) -> String {
             sci(d.board_stability_dph),
         );
     }
-    let _ = writeln!(
-        s,
-        "Figures: `held_out.png` ({w} s means over time), `residual_vs_temperature.png`, \
-         `allan.png`, `cv_curve.png`."
-    );
+    if c.series.time_s.is_empty() {
+        let _ = writeln!(
+            s,
+            "Figures: `cv_curve.png` (nothing is held out, so there are no held-out figures)."
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "Figures: `held_out.png` ({w} s means over time), `residual_vs_temperature.png`, \
+             `allan.png`, `cv_curve.png`."
+        );
+    }
     s
 }
 

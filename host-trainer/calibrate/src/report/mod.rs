@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use rlg_train::export::{self, Format};
+use rlg_train::export_c::CName;
 use rlg_train::model::ModelFile;
 
 use crate::static_cal::StaticCalibration;
@@ -52,12 +53,14 @@ fn write_text(path: &Path, text: &str) -> Result<(), CalibrateError> {
     })
 }
 
-/// Writes `model{stem}.json`, `table{stem}.rs` and `table{stem}.h`.
+/// Writes `model{stem}.json`, `table{stem}.rs` and `table{stem}.h`, the header's symbols
+/// prefixed `c_name`.
 fn write_tables(
     dir: &Path,
     m: &ModelFile,
     command: &str,
     stem: &str,
+    c_name: &CName,
 ) -> Result<Vec<String>, CalibrateError> {
     let names = [
         format!("model{stem}.json"),
@@ -66,7 +69,7 @@ fn write_tables(
     ];
     m.write(&dir.join(&names[0]))?;
     export::write_board_table(m, command, &dir.join(&names[1]), Format::Rust)?;
-    export::write_board_table(m, command, &dir.join(&names[2]), Format::C)?;
+    export::write_board_table_named(m, command, &dir.join(&names[2]), Format::C, c_name)?;
     Ok(names.to_vec())
 }
 
@@ -94,10 +97,29 @@ pub fn prepare_dir(dir: &Path) -> Result<(), CalibrateError> {
 
 /// Writes the folder of a dynamic calibration; returns the files written.
 pub fn write(c: &Calibration, inputs: &Inputs, dir: &Path) -> Result<Vec<PathBuf>, CalibrateError> {
+    write_named(c, inputs, dir, &CName::default())
+}
+
+/// [`write`] with the C headers' symbols prefixed `c_name` (`table_diagnosed.h`'s with
+/// `{c_name}_diagnosed`), so that the headers of several gyros compile into one firmware.
+pub fn write_named(
+    c: &Calibration,
+    inputs: &Inputs,
+    dir: &Path,
+    c_name: &CName,
+) -> Result<Vec<PathBuf>, CalibrateError> {
     prepare_dir(dir)?;
-    let mut files = write_tables(dir, &c.board_model, &inputs.command, "")?;
+    let mut files = write_tables(dir, &c.board_model, &inputs.command, "", c_name)?;
     if let Some(d) = &c.diagnosed_board {
-        files.extend(write_tables(dir, &d.model, &inputs.command, "_diagnosed")?);
+        let name = CName::new(&format!("{c_name}_diagnosed"))
+            .map_err(|e| CalibrateError::Option(e.to_string()))?;
+        files.extend(write_tables(
+            dir,
+            &d.model,
+            &inputs.command,
+            "_diagnosed",
+            &name,
+        )?);
     }
     files.extend(figures::figures(c, dir)?);
     write_text(&dir.join("report.md"), &markdown(c, inputs))?;
@@ -113,8 +135,18 @@ pub fn write_static(
     inputs: &Inputs,
     dir: &Path,
 ) -> Result<Vec<PathBuf>, CalibrateError> {
+    write_static_named(c, inputs, dir, &CName::default())
+}
+
+/// [`write_static`] with the C header's symbols prefixed `c_name`.
+pub fn write_static_named(
+    c: &StaticCalibration,
+    inputs: &Inputs,
+    dir: &Path,
+    c_name: &CName,
+) -> Result<Vec<PathBuf>, CalibrateError> {
     prepare_dir(dir)?;
-    let mut files = write_tables(dir, &c.model, &inputs.command, "")?;
+    let mut files = write_tables(dir, &c.model, &inputs.command, "", c_name)?;
     files.push(figures::static_figure(c, dir)?);
     let md = static_markdown(c, inputs, &static_summary(c, inputs, &files));
     write_text(&dir.join("report.md"), &md)?;

@@ -336,11 +336,13 @@ pub fn static_summary(c: &StaticCalibration, inputs: &Inputs, files: &[String]) 
                 held.map(|h| h.1),
             ),
         ],
-        notes: vec![format!(
+        notes: std::iter::once(format!(
             "Static characterisation: points are {}; no dT/dt model (held-out figures, when a \
              test was given, are the RMS over its points, in `held_out.stability_dph`).",
             c.points_from
-        )],
+        ))
+        .chain(c.notes.iter().cloned())
+        .collect(),
         files: files.to_vec(),
     }
 }

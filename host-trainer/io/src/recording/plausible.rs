@@ -43,6 +43,24 @@ pub(crate) fn rate_problem(name: &str, rate_dph: &[f64]) -> Option<String> {
     })
 }
 
+/// A rate column other than the format's own `rate_dph` whose unit nobody stated: an IMU
+/// logger writes rad/s, °/s or mdps, and a MEMS gyro's bias of 0.01 rad/s read as °/h passes
+/// every range check while being wrong by 2·10⁵, so the unit is asked for, not guessed.
+pub(crate) fn rate_unit_unstated(name: &str) -> Option<String> {
+    (name != "rate_dph").then(|| {
+        format!(
+            "{name}: the unit of the rate column is not stated (no unit in its header or a \
+             units row): give it with {flag} ({units})",
+            flag = RateUnit::FLAG,
+            units = RateUnit::ALL
+                .iter()
+                .map(|u| u.name())
+                .collect::<Vec<_>>()
+                .join("|")
+        )
+    })
+}
+
 /// A time column (s) whose median step is above 100 s looks like a finer unit when the record
 /// would then span over 20 days or its stamps are whole multiples of 10 as a millisecond or
 /// microsecond clock writes them (burst or plateau means minutes apart, with their fractional

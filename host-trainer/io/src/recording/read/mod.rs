@@ -29,7 +29,7 @@ use std::path::Path;
 
 pub use options::{ColumnRef, Delimiter, ReadOptions};
 
-use super::plausible::{rate_problem, temp_problem, time_problem};
+use super::plausible::{rate_problem, rate_unit_unstated, temp_problem, time_problem};
 use super::{Recording, RecordingError};
 
 /// One gyro axis of a file: the recording of one rate column.
@@ -197,6 +197,7 @@ fn checked(p: Parsed, origin: &str) -> Result<Axes, RecordingError> {
         }
         if let Some(name) = &u.rate {
             problems.extend(rate_problem(name, &r.rate_dph));
+            problems.extend(rate_unit_unstated(name));
         }
     }
     if let (Some(ax), Some(Some(name))) = (p.axes.first(), p.unstated.first().map(|u| &u.time)) {

@@ -350,6 +350,7 @@ fn unstated_units_are_checked_under_their_own_names() {
             "--temp-unit k",
             "timestamp: median step 500000",
             "--time-unit us",
+            "gyro: the unit of the rate column is not stated",
         ],
     );
     assert!(!m.contains("--time-unit ms"), "{m}");
@@ -357,17 +358,13 @@ fn unstated_units_are_checked_under_their_own_names() {
         units: UnitChoice {
             time: Some(TimeUnit::Us),
             temp: Some(TempUnit::K),
-            rate: None,
+            rate: Some(RateUnit::Dph),
         },
         ..opts
     };
     let a = read(&text, &ok).unwrap();
     assert_eq!(a.axes[0].recording.time_s[1], 0.5);
-    assert!(
-        a.notes.join("\n").contains("`gyro` in dph (--rate-unit)"),
-        "{:?}",
-        a.notes
-    );
+    assert_eq!(a.axes[0].recording.rate_dph[0], -7.1);
 }
 
 /// An empty field leaves that sample out of its axis (counted in the notes); NaN is refused.
@@ -377,6 +374,10 @@ fn empty_fields_are_gaps_and_nan_is_refused() {
         "time_s,a,b,temp_c\n0,1,1,20\n1,1,1,20\n2,1,1,20\n3,,1,20\n4,1,1,20\n5,1,1,20\n6,1,1,\n";
     let opts = ReadOptions {
         rate_cols: cols(&["a", "b"]),
+        units: UnitChoice {
+            rate: Some(RateUnit::Dph),
+            ..UnitChoice::default()
+        },
         ..ReadOptions::default()
     };
     let a = read(text, &opts).unwrap();

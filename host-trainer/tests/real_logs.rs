@@ -1,0 +1,319 @@
+//! `rlg calibrate` on files written the way real rigs and MEMS IMU loggers write them, made
+//! here by a generator of this test's own (not the simulator's physics or noise): a one-hour
+//! chamber cycle of a three-axis IMU at 2 Hz, tab-separated, µs epoch stamps, rad/s, one axis
+//! with a heating/cooling loop and one whose bias follows a temperature lagging the sensor's;
+//! a semicolon export with decimal commas, a byte-order mark and CRLF; a 50 Hz logger that
+//! wakes for a few seconds every few minutes.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn rlg(args: &[&str]) -> (Option<i32>, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_rlg"))
+        .args(args)
+        .output()
+        .expect("run rlg");
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn dir(name: &str) -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("real_logs")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Standard normal deviates from a 64-bit LCG through Box–Muller: deterministic, and no
+/// relation to the simulator's generator.
+struct Normal(u64);
+
+impl Normal {
+    fn uniform(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        ((self.0 >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    }
+    fn next(&mut self) -> f64 {
+        let (u, v) = (self.uniform(), self.uniform());
+        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    }
+}
+
+const DPH_PER_RAD_S: f64 = 206_264.806_247_096_36;
+
+/// The chamber: 5 min at −20 °C, 25 min up to +75 °C, 5 min there, 25 min back down.
+fn chamber_c(t: f64) -> f64 {
+    match t {
+        t if t < 300.0 => -20.0,
+        t if t < 1800.0 => -20.0 + 95.0 * (t - 300.0) / 1500.0,
+        t if t < 2100.0 => 75.0,
+        t if t < 3600.0 => 75.0 - 95.0 * (t - 2100.0) / 1500.0,
+        _ => -20.0,
+    }
+}
+
+/// One IMU log: per sample (time s, sensor °C, three biases + noise in °/h).
+struct Imu {
+    time_s: Vec<f64>,
+    temp_c: Vec<f64>,
+    rate_dph: [Vec<f64>; 3],
+}
+
+/// `seconds` of the chamber cycle at `hz`, sample times from `times` when given.
+fn imu(hz: f64, seconds: f64, seed: u64) -> Imu {
+    let mut g = Normal(seed);
+    let dt = 1.0 / hz;
+    let n = (seconds * hz) as usize;
+    let (mut sensor, mut inner) = (-20.0f64, -20.0f64);
+    let mut flicker = [0.0f64; 3];
+    let mut out = Imu {
+        time_s: Vec::with_capacity(n),
+        temp_c: Vec::with_capacity(n),
+        rate_dph: [Vec::new(), Vec::new(), Vec::new()],
+    };
+    let mut prev = sensor;
+    for k in 0..n {
+        let t = k as f64 * dt;
+        // The die follows the chamber with 2 min of lag; the gyro's proof mass 5 min behind it.
+        sensor += (chamber_c(t) - sensor) * dt / 120.0;
+        inner += (sensor - inner) * dt / 300.0;
+        let rate_c_per_s = (sensor - prev) / dt;
+        prev = sensor;
+        let d = sensor - 25.0;
+        let bias = [
+            3000.0 + 110.0 * d + 0.3 * d * d,
+            // A heating/cooling loop: the bias depends on the direction of the ramp.
+            -1500.0 + 80.0 * d + 4000.0 * rate_c_per_s,
+            500.0 - 95.0 * (inner - 25.0),
+        ];
+        for a in 0..3 {
+            flicker[a] = 0.995 * flicker[a] + 3.0 * g.next();
+            out.rate_dph[a].push(bias[a] + flicker[a] + 250.0 * g.next());
+        }
+        out.time_s.push(t);
+        // A 1/256 °C sensor LSB and a little noise.
+        out.temp_c
+            .push(((sensor + 0.02 * g.next()) * 256.0).round() / 256.0);
+    }
+    out
+}
+
+/// The three-axis tab-separated file: µs epoch stamps, rad/s, the units in the header.
+fn write_tsv(path: &Path, imu: &Imu, with_units: bool) {
+    let mut s = String::new();
+    if with_units {
+        s.push_str("time_us\tgyro_x [rad/s]\tgyro_y [rad/s]\tgyro_z [rad/s]\ttemp [degC]\n");
+    } else {
+        s.push_str("time_us\tgyro_x\tgyro_y\tgyro_z\ttemp\n");
+    }
+    let epoch_us = 1_764_633_600_000_000u64;
+    for k in 0..imu.time_s.len() {
+        let _ = writeln!(
+            s,
+            "{}\t{:.9}\t{:.9}\t{:.9}\t{:.4}",
+            epoch_us + (imu.time_s[k] * 1e6).round() as u64,
+            imu.rate_dph[0][k] / DPH_PER_RAD_S,
+            imu.rate_dph[1][k] / DPH_PER_RAD_S,
+            imu.rate_dph[2][k] / DPH_PER_RAD_S,
+            imu.temp_c[k]
+        );
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+fn summary(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
+}
+
+/// CV RMS of the summary's model whose name starts with `prefix`, °/h.
+fn cv_rms(sum: &serde_json::Value, prefix: &str) -> f64 {
+    sum["models"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|m| m["name"].as_str().unwrap().starts_with(prefix))
+        .unwrap_or_else(|| panic!("no model {prefix} in {sum}"))["cv_rms_dph"]
+        .as_f64()
+        .unwrap()
+}
+
+/// The one-hour three-axis chamber cycle: every axis calibrated into its own folder, the
+/// loop axis better by dT/dt than by T alone, the three C headers compiled into one unit.
+#[test]
+fn one_hour_three_axis_chamber_cycle() {
+    let d = dir("imu");
+    let log = imu(2.0, 3600.0, 1);
+    let file = d.join("imu.tsv");
+    write_tsv(&file, &log, true);
+    let out = d.join("cal");
+    let (code, stdout, stderr) = rlg(&[
+        "calibrate",
+        "--recording",
+        file.to_str().unwrap(),
+        "--every-axis",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{stdout}\n{stderr}");
+    for axis in ["gyro_x", "gyro_y", "gyro_z"] {
+        let report = std::fs::read_to_string(out.join(axis).join("report.md")).unwrap();
+        assert!(
+            report.contains("averaged to 1 s means"),
+            "{axis}: the 2 Hz stream's averaging is not said:\n{report}"
+        );
+        assert!(report.contains(&format!("Axis `{axis}`")), "{report}");
+        let header = std::fs::read_to_string(out.join(axis).join("table.h")).unwrap();
+        assert!(
+            header.contains(&format!("rlg_{axis}_model")),
+            "{axis}: header not named by its axis"
+        );
+    }
+    let y = summary(&out.join("gyro_y"));
+    let (poly, lssvm) = (cv_rms(&y, "polynomial"), cv_rms(&y, "LS-SVM"));
+    assert!(
+        lssvm < 0.7 * poly,
+        "loop axis: LS-SVM CV rms {lssvm:.1} °/h not clearly below the polynomial's {poly:.1}"
+    );
+    for axis in ["gyro_x", "gyro_y", "gyro_z"] {
+        let s = summary(&out.join(axis));
+        let l = cv_rms(&s, "LS-SVM");
+        // Bias moves by about 10⁴ °/h over the cycle; a model worth flashing leaves a few
+        // hundred °/h at most (the noise of a 1 s sample is 180 °/h).
+        assert!(l.is_finite() && l < 400.0, "{axis}: LS-SVM CV rms {l}");
+    }
+    compile_together(&out);
+}
+
+/// The three axes' headers and the C API header in one translation unit, warnings as
+/// errors: a collision of names is a redefinition error.
+fn compile_together(out: &Path) {
+    let main = out.join("main.c");
+    std::fs::write(
+        &main,
+        "#include \"imu.h\"\n\
+         int main(void) {\n\
+         \x20   const void *tables[] = {&rlg_gyro_x_model, &rlg_gyro_y_model, &rlg_gyro_z_model};\n\
+         \x20   return tables[0] == tables[1] || tables[1] == tables[2];\n\
+         }\n",
+    )
+    .unwrap();
+    let include = Path::new(env!("CARGO_MANIFEST_DIR")).join("../compensator-core/capi/include");
+    let status = Command::new("cc")
+        .args([
+            "-std=c99",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-fsyntax-only",
+            "-I",
+        ])
+        .arg(&include)
+        .arg("-I")
+        .arg(out)
+        .arg(&main)
+        .status();
+    match status {
+        Ok(s) => assert!(s.success(), "the three headers do not compile together"),
+        Err(e) => {
+            let allowed = std::env::var("RLG_ALLOW_MISSING_TOOLS")
+                .is_ok_and(|v| !v.is_empty() && v != "0" && v != "false");
+            assert!(allowed, "cc is missing ({e}): run `bash tests/setup.sh`");
+            eprintln!(
+                "\n!!! SKIPPED compiling the headers: no cc and RLG_ALLOW_MISSING_TOOLS set !!!\n"
+            );
+        }
+    }
+}
+
+/// A rad/s column with no unit in its header is not taken for °/h: the error names the flag.
+#[test]
+fn rad_per_s_without_a_unit_is_refused_with_the_flag() {
+    let d = dir("no_units");
+    let file = d.join("imu.tsv");
+    write_tsv(&file, &imu(2.0, 600.0, 2), false);
+    let (code, stdout, stderr) = rlg(&[
+        "calibrate",
+        "--recording",
+        file.to_str().unwrap(),
+        "--rate-col",
+        "gyro_x",
+        "--out",
+        d.join("cal").to_str().unwrap(),
+    ]);
+    assert_ne!(code, Some(0), "{stdout}");
+    assert!(stderr.contains("--rate-unit"), "{stderr}");
+}
+
+/// A spreadsheet export: semicolons, decimal commas, a byte-order mark, CRLF, a units row.
+#[test]
+fn semicolon_export_with_decimal_commas() {
+    let d = dir("semicolon");
+    let log = imu(1.0, 3600.0, 3);
+    let mut s = String::from("\u{feff}Zeit;Drehrate;Temperatur\r\ns;deg/s;degC\r\n");
+    for k in 0..log.time_s.len() {
+        let _ = write!(
+            s,
+            "{:.1};{:.7};{:.3}\r\n",
+            log.time_s[k],
+            log.rate_dph[1][k] / 3600.0,
+            log.temp_c[k]
+        );
+    }
+    let file = d.join("export.csv");
+    std::fs::write(&file, s.replace('.', ",")).unwrap();
+    let out = d.join("cal");
+    let (code, stdout, stderr) = rlg(&[
+        "calibrate",
+        "--recording",
+        file.to_str().unwrap(),
+        "--time-col",
+        "Zeit",
+        "--rate-col",
+        "Drehrate",
+        "--temp-col",
+        "Temperatur",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{stdout}\n{stderr}");
+    let l = cv_rms(&summary(&out), "LS-SVM");
+    assert!(l.is_finite() && l < 400.0, "LS-SVM CV rms {l}");
+}
+
+/// A logger that wakes for 3 s at 50 Hz every 3 minutes: no 1 Hz stream, so the static
+/// model on one point per burst, said in a note.
+#[test]
+fn bursty_50_hz_logger_gets_the_static_model() {
+    let d = dir("bursts");
+    let log = imu(50.0, 3600.0, 4);
+    let mut s = String::from("time_s,rate_dph,temp_c\n");
+    for k in 0..log.time_s.len() {
+        let t = log.time_s[k];
+        if t % 180.0 < 3.0 {
+            let _ = writeln!(s, "{t:.3},{:.3},{:.4}", log.rate_dph[0][k], log.temp_c[k]);
+        }
+    }
+    let file = d.join("bursts.csv");
+    std::fs::write(&file, s).unwrap();
+    let out = d.join("cal");
+    let (code, stdout, stderr) = rlg(&[
+        "calibrate",
+        "--recording",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{stdout}\n{stderr}");
+    assert!(stdout.contains("sampled in bursts"), "{stdout}");
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(report.contains("20 bursts"), "{report}");
+}
