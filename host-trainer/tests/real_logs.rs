@@ -317,3 +317,72 @@ fn bursty_50_hz_logger_gets_the_static_model() {
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(report.contains("20 bursts"), "{report}");
 }
+
+/// An output folder in use is refused; `--force` removes the earlier run's files (no old
+/// figure stays beside the new report) and leaves the user's; a copy of the calibration
+/// recording given as `--test` is refused.
+#[test]
+fn outputs_are_honest() {
+    let d = dir("outputs");
+    let log = imu(1.0, 3600.0, 5);
+    let mut s = String::from("time_s,rate_dph,temp_c\n");
+    for k in 0..log.time_s.len() {
+        let _ = writeln!(
+            s,
+            "{},{:.3},{:.4}",
+            log.time_s[k], log.rate_dph[0][k], log.temp_c[k]
+        );
+    }
+    let file = d.join("a.csv");
+    std::fs::write(&file, &s).unwrap();
+    let copy = d.join("b.csv");
+    std::fs::write(&copy, &s).unwrap();
+    let out = d.join("cal");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("held_out.png"), b"an earlier run's figure").unwrap();
+    std::fs::write(out.join("notes.txt"), b"the user's").unwrap();
+    let args = |extra: &[&str]| {
+        let mut v = vec![
+            "calibrate",
+            "--recording",
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        v.extend_from_slice(extra);
+        v.iter().map(|a| a.to_string()).collect::<Vec<_>>()
+    };
+    let run = |v: Vec<String>| rlg(&v.iter().map(String::as_str).collect::<Vec<_>>());
+
+    let (code, _, err) = run(args(&["--test", copy.to_str().unwrap()]));
+    assert_eq!(code, Some(1));
+    assert!(err.contains("same bytes as --recording"), "{err}");
+
+    let (code, _, err) = run(args(&[]));
+    assert_eq!(code, Some(1));
+    assert!(
+        err.contains("is not empty") && err.contains("--force"),
+        "{err}"
+    );
+    assert!(
+        out.join("held_out.png").exists(),
+        "a refused run removed files"
+    );
+
+    let (code, stdout, err) = run(args(&["--force"]));
+    assert_eq!(code, Some(0), "{stdout}\n{err}");
+    assert!(
+        !out.join("held_out.png").exists(),
+        "the earlier run's figure stayed beside a one-cycle report"
+    );
+    assert!(
+        out.join("notes.txt").exists(),
+        "--force removed a file not its own"
+    );
+    assert!(stdout.contains("left `notes.txt`"), "{stdout}");
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(
+        report.contains("Figures: `cv_curve.png` (nothing is held out"),
+        "{report}"
+    );
+}

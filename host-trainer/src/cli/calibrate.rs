@@ -88,6 +88,10 @@ pub struct CalibrateArgs {
     /// each axis' header takes `{NAME}_{axis}`, so the headers of one IMU compile together.
     #[arg(long, value_name = "NAME", default_value = CName::DEFAULT)]
     pub name: CName,
+    /// Use a non-empty --out: the files an earlier calibration wrote there are removed first
+    /// (other files are left and named).
+    #[arg(long)]
+    pub force: bool,
     /// Calibrate every gyro axis of the recording (the columns --rate-col names, else every
     /// column with a gyro's name), each into its own folder `--out/{axis}/`, with `imu.h`
     /// including their headers.
@@ -106,14 +110,23 @@ fn file_info(path: &Path, samples: usize) -> anyhow::Result<FileInfo> {
 
 /// Runs `rlg calibrate`.
 pub fn run(a: &CalibrateArgs, command_line: &str) -> anyhow::Result<()> {
-    // The folder first: a path that cannot hold it fails before minutes of work.
-    report::prepare_dir(&a.out)?;
     let grid = grid_of(a.c_min)?;
-    if a.test.as_ref() == Some(&a.recording) {
-        anyhow::bail!(
-            "--test {} is the calibration recording itself: held-out figures need another \
+    if let Some(t) = &a.test {
+        let same = t == &a.recording
+            || Provenance::from_file(t, "")?.data_sha256
+                == Provenance::from_file(&a.recording, "")?.data_sha256;
+        anyhow::ensure!(
+            !same,
+            "--test {} holds the same bytes as --recording: held-out figures need another \
              recording (or leave --test out to hold out the later cycles)",
-            a.recording.display()
+            t.display()
+        );
+    }
+    // The folder before the work: a path that cannot hold it fails before minutes of work.
+    for f in report::prepare_out(&a.out, a.force)? {
+        println!(
+            "note: --force left `{f}` in {} (not a file of this tool)",
+            a.out.display()
         );
     }
     if !a.every_axis {

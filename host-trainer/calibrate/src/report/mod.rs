@@ -81,6 +81,87 @@ fn write_summary(dir: &Path, sum: &Summary) -> Result<(), CalibrateError> {
     )
 }
 
+/// Whether `name` is a file a calibration folder's writer makes (`report.md`, `summary.json`,
+/// `model*.json`, `table*.rs`, `table*.h`, PNG figures, `imu.h`).
+pub fn is_own_file(name: &str) -> bool {
+    matches!(name, "report.md" | "summary.json" | "imu.h")
+        || name.ends_with(".png")
+        || (name.starts_with("model") && name.ends_with(".json"))
+        || (name.starts_with("table") && (name.ends_with(".rs") || name.ends_with(".h")))
+}
+
+/// Prepares `--out` for a calibration: created when missing; an existing folder must be
+/// empty, or with `force` the files of an earlier calibration are removed from it and from
+/// its subfolders that hold a `summary.json` (the axes of `--every-axis`), so that no old
+/// figure stays beside a new report; other files are left and named. Then a file is written
+/// and removed, so a read-only folder fails before the work. Returns the files left.
+pub fn prepare_out(dir: &Path, force: bool) -> Result<Vec<String>, CalibrateError> {
+    prepare_dir(dir)?;
+    let io = |message: String| {
+        move |source| CalibrateError::OutputDir {
+            message,
+            source: Some(source),
+        }
+    };
+    let listed = |d: &Path| -> Result<Vec<PathBuf>, CalibrateError> {
+        let mut v: Vec<PathBuf> = std::fs::read_dir(d)
+            .map_err(io(format!("--out {}: cannot list the folder", d.display())))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .collect();
+        v.sort();
+        Ok(v)
+    };
+    let entries = listed(dir)?;
+    if !entries.is_empty() && !force {
+        return Err(CalibrateError::OutputDir {
+            message: format!(
+                "--out {} is not empty ({} entries, first `{}`): give a new or empty folder, or \
+                 --force to replace an earlier calibration's files there",
+                dir.display(),
+                entries.len(),
+                entries[0].file_name().unwrap_or_default().to_string_lossy()
+            ),
+            source: None,
+        });
+    }
+    let mut left = Vec::new();
+    for e in entries {
+        let name = e
+            .file_name()
+            .unwrap_or_default()
+            .to_string_lossy()
+            .into_owned();
+        if e.is_dir() && e.join("summary.json").is_file() {
+            for f in listed(&e)? {
+                let n = f
+                    .file_name()
+                    .unwrap_or_default()
+                    .to_string_lossy()
+                    .into_owned();
+                if f.is_file() && is_own_file(&n) {
+                    std::fs::remove_file(&f)
+                        .map_err(io(format!("--force: cannot remove {}", f.display())))?;
+                } else {
+                    left.push(format!("{name}/{n}"));
+                }
+            }
+        } else if e.is_file() && is_own_file(&name) {
+            std::fs::remove_file(&e)
+                .map_err(io(format!("--force: cannot remove {}", e.display())))?;
+        } else {
+            left.push(name);
+        }
+    }
+    let probe = dir.join(".rlg-write-probe");
+    std::fs::write(&probe, b"")
+        .and_then(|()| std::fs::remove_file(&probe))
+        .map_err(io(format!(
+            "--out {}: cannot write in the folder",
+            dir.display()
+        )))?;
+    Ok(left)
+}
+
 /// Creates `dir` (a clear error when it cannot be a folder); done before the work.
 pub fn prepare_dir(dir: &Path) -> Result<(), CalibrateError> {
     if dir.is_file() {
