@@ -43,6 +43,7 @@ mod split;
 pub mod static_cal;
 mod stream;
 pub mod train;
+pub mod warnings;
 
 use indicatif::ProgressBar;
 
@@ -111,6 +112,17 @@ pub fn calibrate(
         opts,
         &mut notes,
     )?;
+    if let Some(row) = comparison.rows.iter().find(|r| r.model == Model::Lssvm) {
+        notes.extend(warnings::tuning_notes(
+            "The LS-SVM",
+            (fitted.tuned.sigma, fitted.tuned.c),
+            &opts.grid,
+            (
+                row.train_rms_dph.unwrap_or(f64::NAN),
+                row.cv_rms_dph.unwrap_or(f64::NAN),
+            ),
+        ));
+    }
     let t0 = cal.time_s[0];
     let t_end = *cal.time_s.last().unwrap_or(&t0);
     Ok(Calibration {

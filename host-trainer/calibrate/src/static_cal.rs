@@ -429,6 +429,12 @@ pub fn calibrate_static(
         refused,
     } = choose_table(&p, &tuned, opts, provenance)?;
 
+    notes.extend(crate::warnings::tuning_notes(
+        "The static LS-SVM",
+        (point.sigma, point.c),
+        &opts.grid,
+        (model.training.rms_dph, point.cv_rms_dph),
+    ));
     let (test_points, held_out_rms_dph) = match test {
         Some(r) => {
             let r = crate::input::for_static(r, "the test recording", &mut notes)?;
