@@ -465,3 +465,24 @@ fn ten_hz_rlg_day() {
     let (raw, lssvm) = (held("raw"), held("LS-SVM"));
     assert!(lssvm < 0.5 * raw, "held out: LS-SVM {lssvm} vs raw {raw}");
 }
+
+/// The diagnosis of the one-hour cycle: 10 s means instead of 100 s ones, said in a note.
+#[test]
+fn one_hour_cycle_is_diagnosed() {
+    let d = dir("diagnose");
+    let file = d.join("imu.tsv");
+    write_tsv(&file, &imu(2.0, 3600.0, 7), true);
+    let (code, stdout, stderr) = rlg(&[
+        "diagnose",
+        "--recording",
+        file.to_str().unwrap(),
+        "--rate-col",
+        "imu.gyro.x",
+    ]);
+    assert_eq!(code, Some(0), "{stdout}\n{stderr}");
+    assert!(stdout.starts_with("verdict: "), "{stdout}");
+    assert!(
+        stdout.contains("means of 10 s instead of 100 s means"),
+        "{stdout}"
+    );
+}

@@ -133,3 +133,16 @@ fn long_records_get_longer_blocks() {
     assert_eq!(block_samples(2_678_400, 1.0), 700);
     assert_eq!(block_samples(2 * 2_678_400, 0.5), 1400);
 }
+
+/// A record too short for MIN_BLOCKS means of 100 s takes the longest shorter block that
+/// gives them (an hour at 2 Hz: 10 s); one that 10 s blocks cannot fill keeps 100 s (and is
+/// refused by `prepare`); from MIN_BLOCKS × 100 s on, nothing changes.
+#[test]
+fn short_records_get_shorter_blocks() {
+    use crate::prepare::MIN_BLOCKS;
+    assert_eq!(block_samples(7_200, 0.5), 20);
+    assert_eq!(block_samples(4 * 3_600, 1.0), 50);
+    assert_eq!(block_samples(8_000, 1.0), 20);
+    assert_eq!(block_samples(1_000, 1.0), 100);
+    assert_eq!(block_samples(100 * MIN_BLOCKS, 1.0), 100);
+}

@@ -19,10 +19,29 @@ pub const MIN_BLOCKS: usize = 200;
 /// has 3 700 of them); effects faster than a block were already beyond 100 s means.
 pub const MAX_BLOCKS: usize = 4000;
 
+/// Shorter blocks a record too short for [`MIN_BLOCKS`] of [`BLOCK_S`] is cut into, longest
+/// first, s: a MEMS chamber run of an hour or two still gives [`MIN_BLOCKS`] means of 10 or
+/// 20 s, and its bias, moving fast against its noise, is resolved by them (the 100 s block is
+/// an RLG convention). Below 10 s the noise model's block means would no longer be near
+/// Gaussian on a quantised output, so a record under [`MIN_BLOCKS`] × 10 s stays refused.
+pub const SHORT_BLOCKS_S: [f64; 3] = [50.0, 20.0, 10.0];
+
 /// Samples per block for `n` samples `dt_s` apart: [`BLOCK_S`], or the smallest whole
-/// multiple of it that keeps the record within [`MAX_BLOCKS`] blocks.
+/// multiple of it that keeps the record within [`MAX_BLOCKS`] blocks, or on a record with
+/// fewer than [`MIN_BLOCKS`] of them the longest of [`SHORT_BLOCKS_S`] that gives that many.
 pub fn block_samples(n: usize, dt_s: f64) -> usize {
-    let base = (BLOCK_S / dt_s).round().max(1.0) as usize;
+    let samples = |s: f64| (s / dt_s).round().max(1.0) as usize;
+    let base = samples(BLOCK_S);
+    if n / base < MIN_BLOCKS {
+        if let Some(b) = SHORT_BLOCKS_S
+            .iter()
+            .map(|&s| samples(s))
+            // A margin for the samples the dT/dt estimate drops at the start.
+            .find(|&b| n / b >= MIN_BLOCKS + 10)
+        {
+            return b;
+        }
+    }
     let k = n.div_ceil(base * MAX_BLOCKS).max(1);
     base * k
 }

@@ -76,6 +76,15 @@ impl Grid {
         let mut notes = Vec::new();
         let block_s = prep.block as f64 * prep.dt_s;
         // (A record of burst means has one sample per block, however long the blocks.)
+        if prep.block > 1 && block_s < BLOCK_S / 1.5 {
+            notes.push(format!(
+                "the record is {:.1} h long: it is analysed as {} means of {block_s:.0} s instead \
+                 of 100 s means (at least {} blocks are needed)",
+                prep.nb() as f64 * block_s / 3600.0,
+                prep.nb(),
+                crate::prepare::MIN_BLOCKS
+            ));
+        }
         if prep.block > 1 && block_s > BLOCK_S * 1.5 {
             notes.push(format!(
                 "the record is {:.1} days long: it is analysed as {} means of {block_s:.0} s (at \
