@@ -5,7 +5,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-step() { printf '\n==> %s\n' "$*"; }
+# Each step says when it starts, so the slow ones show in every CI log.
+step() { printf '\n==> %s (at %d s)\n' "$*" "$SECONDS"; }
 
 step "setup (targets, qemu-system-arm, cc, arm-none-eabi-gcc)"
 bash tests/setup.sh
@@ -39,3 +40,5 @@ cargo test --workspace
 # a release build only for this test cost three minutes of the command.
 step "diagnosis benchmark, quick set (regression floors on detection and false alarms)"
 cargo test -p rlg-benchmarks --lib quick_benchmark -- --ignored --nocapture
+
+printf '\n==> every test passed in %d s\n' "$SECONDS"
