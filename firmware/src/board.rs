@@ -203,7 +203,42 @@ fn main() -> ! {
         fail()
     };
     let costs = replay(&mut ctl, table, Stderr(stderr), count);
-    fixed_pass(data, table, count);
+    // In an `RLG_FW_FIXED` build: the temperatures replayed again through the integer
+    // evaluator, its outputs' digest and cost logged. Inline, not a function: the table's
+    // input count is the generated MODEL's, which a function signature cannot name.
+    // Evaluated at compile time only for an `RLG_FW_FIXED` build: a table without a Q24 form
+    // (large coefficients, more inputs than the fixed path takes) must still build the f32
+    // image, and a const block is evaluated whether or not its branch runs.
+    if let Some(fixed) = &const {
+        if FIXED_PASS {
+            match FixedModel::from_table(&MODEL) {
+                Ok(f) => Some(f),
+                Err(_) => panic!("the model table has no Q24 form"),
+            }
+        } else {
+            None
+        }
+    } {
+        let (temps, _) = replay::channels(data);
+        let mut trace = FixedTrace::new(table.as_model());
+        let mut fcost = Cost::default();
+        let mut temps = temps;
+        for _ in 0..count {
+            let t = temps.read_temp_c().unwrap_or(f32::NAN);
+            if let Some(z) = trace.features(t) {
+                let (y, ticks) = timed(|| fixed.predict(black_box(&z)));
+                fcost.add(ticks);
+                trace.fold(y);
+            }
+        }
+        defmt::info!(
+            "fixed: digest={=u32} outputs={=u32} predict_total={=u64} calls={=u32} (SysTick ticks of FixedModel::predict)",
+            trace.digest(),
+            trace.count(),
+            fcost.total,
+            fcost.calls
+        );
+    }
     log_summary(&ctl, &costs, &painted);
     if !costs.written {
         defmt::error!("the host did not take every sample line");
@@ -309,44 +344,6 @@ fn replay<T: TemperatureSensor, R: RateSensor, const N: usize, const D: usize>(
         kernel_fast: k_fast,
         fast_max_dev_dph: fast_dev,
         written,
-    }
-}
-
-/// In an `RLG_FW_FIXED` build: the temperatures replayed again through the integer
-/// evaluator, its outputs' digest and cost logged.
-fn fixed_pass<const N: usize>(data: ReplayData<'_>, table: &ModelTable<N, 2>, count: u32) {
-    // Evaluated at compile time only for an `RLG_FW_FIXED` build: a table without a Q24 form
-    // (large coefficients, more inputs than the fixed path takes) must still build the f32
-    // image, and a const block is evaluated whether or not its branch runs.
-    if let Some(fixed) = &const {
-        if FIXED_PASS {
-            match FixedModel::from_table(&MODEL) {
-                Ok(f) => Some(f),
-                Err(_) => panic!("the model table has no Q24 form"),
-            }
-        } else {
-            None
-        }
-    } {
-        let (temps, _) = replay::channels(data);
-        let mut trace = FixedTrace::new(table.as_model());
-        let mut fcost = Cost::default();
-        let mut temps = temps;
-        for _ in 0..count {
-            let t = temps.read_temp_c().unwrap_or(f32::NAN);
-            if let Some(z) = trace.features(t) {
-                let (y, ticks) = timed(|| fixed.predict(black_box(&z)));
-                fcost.add(ticks);
-                trace.fold(y);
-            }
-        }
-        defmt::info!(
-            "fixed: digest={=u32} outputs={=u32} predict_total={=u64} calls={=u32} (SysTick ticks of FixedModel::predict)",
-            trace.digest(),
-            trace.count(),
-            fcost.total,
-            fcost.calls
-        );
     }
 }
 

@@ -13,6 +13,9 @@ use std::sync::OnceLock;
 /// The font family name the embedded font is registered under.
 const FONT: &str = "sans-serif";
 
+/// Pixels right of the plot kept for the legend.
+const LEGEND_WIDTH: u32 = 250;
+
 /// How a series is drawn.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Style {
@@ -235,31 +238,27 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, fig: &Figure) -> Resul
         None => 0.0..1.0,
     };
 
+    let legend = !series.is_empty();
     root.fill(&WHITE).map_err(draw_err)?;
     let mut chart = ChartBuilder::on(&root)
         .caption(&fig.title, (FONT, 22))
         .margin(12)
+        // Room right of the plot for the legend, so that it covers no data.
+        .margin_right(if legend { LEGEND_WIDTH } else { 12 })
         .x_label_area_size(50)
         .y_label_area_size(90)
         .right_y_label_area_size(if fig.y2_label.is_some() { 90 } else { 0 })
         .build_cartesian_2d(xr.clone(), yr)
         .map_err(draw_err)?
         .set_secondary_coord(xr, y2r);
-    // Tick labels on a log axis: the value 10^v, rounded for reading.
-    let tick = |v: &f64| {
-        let p = 10f64.powf(*v);
-        if (1e-3..1e5).contains(&p) {
-            format!("{}", (p * 1e3).round() / 1e3)
-        } else {
-            format!("{p:.0e}")
-        }
-    };
+    // A log axis gets ticks of its own at 1, 2, 5 × 10ⁿ (plotters' would sit at round
+    // logarithms, 10^0.2 = 1.585), drawn after the mesh.
     let mut mesh = chart.configure_mesh();
     if fig.log_x {
-        mesh.x_label_formatter(&tick);
+        mesh.x_labels(0);
     }
     if fig.log_y {
-        mesh.y_label_formatter(&tick);
+        mesh.y_labels(0);
     }
     mesh.x_desc(&fig.x_label)
         .y_desc(&fig.y_label)
@@ -267,6 +266,44 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, fig: &Figure) -> Resul
         .axis_desc_style((FONT, 16))
         .draw()
         .map_err(draw_err)?;
+    let (xr, yr) = (chart.x_range(), chart.y_range());
+    let font: TextStyle = (FONT, 14).into_font().into();
+    if fig.log_x {
+        for (v, label) in log_ticks(&xr) {
+            chart
+                .draw_series(std::iter::once(PathElement::new(
+                    vec![(v, yr.start), (v, yr.end)],
+                    BLACK.mix(0.15),
+                )))
+                .map_err(draw_err)?;
+            if let Some(text) = label {
+                let (px, py) = chart.backend_coord(&(v, yr.start));
+                let (w, _) = root.estimate_text_size(&text, &font).map_err(draw_err)?;
+                root.draw(&Text::new(text, (px - w as i32 / 2, py + 6), font.clone()))
+                    .map_err(draw_err)?;
+            }
+        }
+    }
+    if fig.log_y {
+        for (v, label) in log_ticks(&yr) {
+            chart
+                .draw_series(std::iter::once(PathElement::new(
+                    vec![(xr.start, v), (xr.end, v)],
+                    BLACK.mix(0.15),
+                )))
+                .map_err(draw_err)?;
+            if let Some(text) = label {
+                let (px, py) = chart.backend_coord(&(xr.start, v));
+                let (w, h) = root.estimate_text_size(&text, &font).map_err(draw_err)?;
+                root.draw(&Text::new(
+                    text,
+                    (px - w as i32 - 8, py - h as i32 / 2),
+                    font.clone(),
+                ))
+                .map_err(draw_err)?;
+            }
+        }
+    }
     if let Some(l) = &fig.y2_label {
         chart
             .configure_secondary_axes()
@@ -281,16 +318,6 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, fig: &Figure) -> Resul
         let pts = finite_points(s);
         let line = matches!(s.style, Style::Line | Style::LinePoints);
         let marks = matches!(s.style, Style::Points | Style::LinePoints);
-        // The legend entry hangs off the first element drawn for the series.
-        let mut legend_done = false;
-        let mut add = |anno: &mut plotters::chart::SeriesAnno<'_, DB>| {
-            if !legend_done {
-                anno.label(s.label.clone()).legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
-                });
-                legend_done = true;
-            }
-        };
         let right = s.axis == Axis::Right;
         if line {
             let series = LineSeries::new(pts.clone(), color.stroke_width(2));
@@ -299,7 +326,7 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, fig: &Figure) -> Resul
             } else {
                 chart.draw_series(series)
             };
-            add(anno.map_err(draw_err)?);
+            anno.map_err(draw_err)?;
         }
         if marks {
             let series = pts.iter().map(|p| Circle::new(*p, 4, color.filled()));
@@ -308,17 +335,68 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, fig: &Figure) -> Resul
             } else {
                 chart.draw_series(series)
             };
-            add(anno.map_err(draw_err)?);
+            anno.map_err(draw_err)?;
         }
     }
-    chart
-        .configure_series_labels()
-        .label_font((FONT, 14))
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
+    // The legend right of the plot, drawn on the whole image (the chart's own legend is
+    // clipped to the plotting area, where it would cover data).
+    let right_axis = if fig.y2_label.is_some() { 90 } else { 0 };
+    let (x_right, y_top) = chart.backend_coord(&(xr.end, yr.end));
+    let (lx, mut ly) = (x_right + right_axis + 16, y_top);
+    let label_font: TextStyle = (FONT, 13).into_font().into();
+    for (i, s) in series.iter().enumerate() {
+        let color = PALETTE[i % PALETTE.len()];
+        if matches!(s.style, Style::Line | Style::LinePoints) {
+            root.draw(&PathElement::new(
+                vec![(lx, ly + 8), (lx + 20, ly + 8)],
+                color.stroke_width(2),
+            ))
+            .map_err(draw_err)?;
+        }
+        if matches!(s.style, Style::Points | Style::LinePoints) {
+            root.draw(&Circle::new((lx + 10, ly + 8), 4, color.filled()))
+                .map_err(draw_err)?;
+        }
+        root.draw(&Text::new(
+            s.label.clone(),
+            (lx + 28, ly),
+            label_font.clone(),
+        ))
         .map_err(draw_err)?;
+        ly += 20;
+    }
     root.present().map_err(draw_err)
+}
+
+/// Ticks of a log axis spanning `range` (log10 values): (log10 of the tick, its label). Every
+/// 1, 2 and 5 × 10ⁿ is a tick; over three decades or fewer each is labelled, over more only
+/// the powers of ten.
+fn log_ticks(range: &Range<f64>) -> Vec<(f64, Option<String>)> {
+    let (lo, hi) = (range.start.min(range.end), range.start.max(range.end));
+    if !(lo.is_finite() && hi.is_finite()) {
+        return Vec::new();
+    }
+    let all = hi - lo <= 3.0;
+    let mut out = Vec::new();
+    for n in (lo.floor() as i32)..=(hi.ceil() as i32) {
+        for m in [1.0, 2.0, 5.0] {
+            let v = m * 10f64.powi(n);
+            let l = v.log10();
+            if l < lo - 1e-9 || l > hi + 1e-9 {
+                continue;
+            }
+            let label = (all || m == 1.0).then(|| {
+                if (1e-3..1e5).contains(&v) {
+                    // Rounded to the tick's own digits: 0.05, 2, 500.
+                    format!("{}", (v * 1e3).round() / 1e3)
+                } else {
+                    format!("{v:.0e}")
+                }
+            });
+            out.push((l, label));
+        }
+    }
+    out
 }
 
 fn check_size(fig: &Figure) -> Result<(), PlotError> {
@@ -411,6 +489,17 @@ mod tests {
             .filter(|&i| buf[i] < 100 && buf[i + 1] < 100 && buf[i + 2] < 100)
             .count();
         assert!(dark > 20, "{dark} dark pixels in the title band");
+    }
+
+    #[test]
+    fn log_ticks_are_round() {
+        let t = log_ticks(&((0.05f64).log10()..(5.0f64).log10()));
+        let labels: Vec<String> = t.iter().filter_map(|(_, l)| l.clone()).collect();
+        assert_eq!(labels, ["0.05", "0.1", "0.2", "0.5", "1", "2", "5"]);
+        let wide = log_ticks(&(-1.0..5.0));
+        let labels: Vec<String> = wide.iter().filter_map(|(_, l)| l.clone()).collect();
+        assert_eq!(labels, ["0.1", "1", "10", "100", "1000", "10000", "1e5"]);
+        assert_eq!(wide.len(), 3 * 6 + 1);
     }
 
     #[test]

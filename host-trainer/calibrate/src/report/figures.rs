@@ -130,6 +130,13 @@ pub(super) fn figures(c: &Calibration, dir: &Path) -> Result<Vec<String>, Calibr
             Style::LinePoints,
         ));
     }
+    // The choice (refined between grid points) marked on the curves it was chosen from.
+    cv.series.push(Series::new(
+        &format!("chosen: σ = {:.3}, c = {:.3}", c.tuned.sigma, c.tuned.c),
+        vec![c.tuned.sigma],
+        vec![c.tuned.cv_rms_dph],
+        Style::Points,
+    ));
     render_png(&cv, &dir.join("cv_curve.png"))?;
     files.push("cv_curve.png".into());
     Ok(files)
