@@ -3,6 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
+use anyhow::Context as _;
 use clap::Args;
 
 use rlg_calibrate::report::{self, FileInfo, Inputs};
@@ -79,6 +80,31 @@ pub struct CalibrateArgs {
     /// bursty log has no 1 Hz stream, so no dT/dt model).
     #[arg(long = "static")]
     pub static_only: bool,
+    /// Also write the report (`report.md`) to this file, e.g. a results file kept in the
+    /// repository, after a first line naming the command that wrote it.
+    #[arg(long, value_name = "FILE")]
+    pub results_md: Option<PathBuf>,
+}
+
+/// The flags of `rlg calibrate` that take a path, with their placeholders.
+const PATH_FLAGS: &[(&str, &str)] = &[
+    ("--recording", "FILE"),
+    ("--test", "FILE"),
+    ("--out", "DIR"),
+    ("--model", "FILE"),
+    ("--results-md", "FILE"),
+];
+
+/// `--results-md`: the report just written to `out`, after the line naming the command.
+fn write_results_md(a: &CalibrateArgs) -> anyhow::Result<()> {
+    if let Some(p) = &a.results_md {
+        let report = a.out.join("report.md");
+        let md = std::fs::read_to_string(&report)
+            .with_context(|| format!("reading {}", report.display()))?;
+        let header = super::results::header(std::env::args(), PATH_FLAGS, None);
+        super::results::write(p, &header, &md)?;
+    }
+    Ok(())
 }
 
 fn file_info(path: &Path, samples: usize) -> anyhow::Result<FileInfo> {
@@ -94,6 +120,9 @@ fn file_info(path: &Path, samples: usize) -> anyhow::Result<FileInfo> {
 pub fn run(a: &CalibrateArgs, command_line: &str) -> anyhow::Result<()> {
     // The folder first: a path that cannot hold it fails before minutes of work.
     report::prepare_dir(&a.out)?;
+    if let Some(p) = &a.results_md {
+        super::check_output_file(p, "--results-md")?;
+    }
     anyhow::ensure!(
         a.c_min > 0.0 && a.c_min.is_finite(),
         "--c-min {}: c must be positive",
@@ -138,7 +167,7 @@ pub fn run(a: &CalibrateArgs, command_line: &str) -> anyhow::Result<()> {
             report::static_console(&report::static_summary(&c, &inputs, &[]))
         );
         println!("wrote {} files to {}", files.len(), a.out.display());
-        return Ok(());
+        return write_results_md(a);
     }
     let opts = Options {
         train_cycles: a.train_cycles,
@@ -170,5 +199,5 @@ pub fn run(a: &CalibrateArgs, command_line: &str) -> anyhow::Result<()> {
         a.out.display(),
         a.out.join("report.md").display()
     );
-    Ok(())
+    write_results_md(a)
 }
