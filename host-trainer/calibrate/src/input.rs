@@ -63,7 +63,7 @@ pub fn at_board_rate<'a>(
              trained from it; give --static for a temperature-only model on the burst means",
             describe_bursts(&b)
         ))),
-        Sampling::Stream { step_s } if step_s < 0.9 && step_s >= 0.999 / MAX_RATE_HZ => {
+        Sampling::Stream { step_s } if (0.999 / MAX_RATE_HZ..0.9).contains(&step_s) => {
             let (means, report) = bin_means(&rec, 1.0).map_err(|e| {
                 CalibrateError::Input(format!("{what}: averaging to 1 s means: {e}"))
             })?;
