@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Every test of the project, from a fresh Debian machine with Rust (README: "Run every test").
+# Every test of the project, from a fresh Debian machine with Rust (the top README's second
+# command).
 # Installs what is missing (thumb targets, qemu-system-arm, the C compilers) through
 # tests/setup.sh first.
 set -euo pipefail

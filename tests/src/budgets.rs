@@ -29,7 +29,8 @@ use crate::firmware::{self, log_field, FirmwareError, QemuRun};
 
 /// Board budgets at 64 support vectors and two inputs, enforced by `tests/tests/board_budgets.rs`
 /// and reported by `cargo run --release -p tests --bin budgets` (which exits non-zero when one
-/// is not met). Measured values are in the test's output and the README.
+/// is not met). Measured values are in the test's output (`-- --nocapture`), the `budgets`
+/// binary's table and the main job's board log (`host-trainer/results/paper.md`).
 pub mod limits {
     /// Support vectors the budgets are stated for.
     pub const SUPPORT_VECTORS: usize = 64;

@@ -39,6 +39,24 @@ fn qemu_replay_matches_host_bit_for_bit() {
         return;
     }
     let t_start = Instant::now();
+    let (input, run, t_built) = run_scenario();
+    let n = input.len() as u32;
+    let (counts, ok) = compare_with_host(&input, &run);
+    check_faults(&input, &run);
+    check_summary(&run, n, ok, counts);
+    check_cost(&run);
+    println!(
+        "{} samples bit-identical; build {:.1} s, QEMU {:.2} s; counts ok={ok} {:?}",
+        n,
+        (t_built - t_start).as_secs_f64(),
+        run.elapsed.as_secs_f64(),
+        BITS.iter().map(|b| b.1).zip(counts).collect::<Vec<_>>()
+    );
+}
+
+/// Builds the image with the scenario compiled in and runs it in QEMU: the scenario, the run
+/// (log printed, exit code and framing checked) and when the build ended.
+fn run_scenario() -> (Vec<replay::ReplaySample>, firmware::QemuRun, Instant) {
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
     let bin = dir.join("qemu_replay_scenario.bin");
     let elf = dir.join("qemu_replay_firmware.elf");
@@ -66,8 +84,12 @@ fn qemu_replay_matches_host_bit_for_bit() {
     assert_eq!(run.begin_count, Some(n), "B line");
     assert_eq!(run.end_count, Some(n), "E line");
     assert_eq!(run.records.len(), input.len(), "S lines");
+    (input, run, t_built)
+}
 
-    // The host reference over the same inputs and the same table file.
+/// Every output sample of the board against the host reference over the same inputs and the
+/// same table file; returns the host's count of each status bit of [`BITS`] and of samples ok.
+fn compare_with_host(input: &[replay::ReplaySample], run: &firmware::QemuRun) -> ([u64; 6], u64) {
     let mut host = Compensator::new(model_table::MODEL.as_model(), SensorLimits::DEFAULT);
     assert!(host.table_ok(), "the model table must validate");
     let mut counts = [0u64; 6];
@@ -112,9 +134,13 @@ fn qemu_replay_matches_host_bit_for_bit() {
         &mismatches[..mismatches.len().min(10)]
     );
 
-    // Each injected fault is flagged on the board at its samples, and the board recovers:
-    // after a one-sample fault the next sample is compensated again without a warm-up, after
-    // the 40-sample dropout the estimator re-warms (WARMING_UP) and then compensates again.
+    (counts, ok)
+}
+
+/// Each injected fault is flagged on the board at its samples, and the board recovers:
+/// after a one-sample fault the next sample is compensated again without a warm-up, after
+/// the 40-sample dropout the estimator re-warms (WARMING_UP) and then compensates again.
+fn check_faults(input: &[replay::ReplaySample], run: &firmware::QemuRun) {
     let status = |k: usize| Status(run.records[k].status);
     let stuck_after = SensorLimits::DEFAULT.stuck_samples as usize;
     for (first, len, fault) in replay::SCENARIO_FAULTS {
@@ -196,8 +222,11 @@ fn qemu_replay_matches_host_bit_for_bit() {
             "no warning for {fault:?} at {at}: {warnings:#?}"
         );
     }
+}
 
-    // The image's own summary agrees with the host's counts.
+/// The image's own summary agrees with the host's counts, and the scenario exercises every
+/// path but the table fault.
+fn check_summary(run: &firmware::QemuRun, n: u32, ok: u64, counts: [u64; 6]) {
     let summary = run
         .log
         .iter()
@@ -225,6 +254,11 @@ fn qemu_replay_matches_host_bit_for_bit() {
             assert!(c > 0, "scenario never sets {name}");
         }
     }
+}
+
+/// The image's cost figures: the SysTick calibration, the update's cost within the board's
+/// budget per support vector, and the table the image started with.
+fn check_cost(run: &firmware::QemuRun) {
     // SysTick calibration: a loop of known instruction count against the 40-per-tick claim
     // the cost figures rely on.
     let cal = run
@@ -275,13 +309,6 @@ fn qemu_replay_matches_host_bit_for_bit() {
         "{start}"
     );
     assert_eq!(log_field(start, "D"), Some(2), "{start}");
-    println!(
-        "{} samples bit-identical; build {:.1} s, QEMU {:.2} s; counts ok={ok} {:?}",
-        n,
-        (t_built - t_start).as_secs_f64(),
-        run.elapsed.as_secs_f64(),
-        BITS.iter().map(|b| b.1).zip(counts).collect::<Vec<_>>()
-    );
 }
 
 /// A panic and a HardFault end QEMU with exit code 1 and a log line, instead of hanging.

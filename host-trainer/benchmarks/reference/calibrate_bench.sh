@@ -11,7 +11,22 @@
 # "512 128": 512 is the size of rlg's own fixed-size LS-SVM beyond 4000 training means; the
 # Python grid search's time grows steeply with M, and on this campaign 128 components reach the
 # same held-out figure as 512).
+# --results-md FILE also writes the summary to FILE (host-trainer/results/calibrate-bench.md),
+# after a first line naming the command that wrote it.
 set -euo pipefail
+results_md=""
+while [ $# -gt 0 ]; do
+    case "$1" in
+        --results-md) results_md="${2:?--results-md needs a file}"; shift 2 ;;
+        --results-md=*) results_md="${1#*=}"; shift ;;
+        *) echo "usage: [REPS=N] [COMPONENTS=\"M ...\"] $0 [--results-md FILE]" >&2; exit 2 ;;
+    esac
+done
+# Checked before the run, which takes minutes.
+if [ -n "$results_md" ] && [ ! -d "$(dirname "$results_md")" ]; then
+    echo "--results-md $results_md: directory $(dirname "$results_md") does not exist" >&2
+    exit 1
+fi
 here="$(cd "$(dirname "$0")" && pwd)"
 root="$(cd "$here/../../.." && pwd)"
 venv="$root/target/bench-venv"
@@ -63,7 +78,7 @@ for i in $(seq 1 "$reps"); do
     done
 done
 
-"$py" - "$work" $components <<'EOF'
+"$py" - "$work" $components <<'EOF' | tee "$work/summary.txt"
 import json, statistics, sys
 work, comps = sys.argv[1], sys.argv[2:]
 med = statistics.median
@@ -102,3 +117,14 @@ print("wall s and peak MB: GNU time (%e, %M: maxrss of the largest single proces
       "process, GridSearchCV's 2 workers are separate processes, not summed). CPU s: user + "
       "sys of the process and the children it waited for.")
 EOF
+
+if [ -n "$results_md" ]; then
+    {
+        printf 'Written by `REPS=%s COMPONENTS="%s" host-trainer/benchmarks/reference/calibrate_bench.sh --results-md FILE`.\n\n' \
+            "$reps" "$components"
+        echo '```text'
+        sed '/./,$!d' "$work/summary.txt"
+        echo '```'
+    } > "$results_md.tmp"
+    mv "$results_md.tmp" "$results_md"
+fi

@@ -116,7 +116,7 @@ pub struct Options {
     /// Block phases a near-threshold verdict is decided over (1: the blocks as they fall;
     /// see [`PHASE_P_RANGE`]). One by default: three clear a few false alarms on clean
     /// records of the mismatched kind but make a day's diagnosis several times slower
-    /// (module README, "Where the 100 s blocks start").
+    /// (`METHOD.md`, "Where the 100 s blocks start"; CHANGELOG.md, "measured and not kept").
     pub phases: usize,
 }
 
@@ -127,7 +127,7 @@ impl Default for Options {
             // Chosen from the benchmark's operating curve (`rlg benchmark-diagnose
             // --alpha 0.05` reports the verdicts at every smaller α): above 2–3 % the false
             // alarms on clean recordings grow faster than α, and the target is ≤ 5 %. See
-            // the module README.
+            // `METHOD.md`, "The choice of α".
             alpha: 0.02,
             seed: 0x5eed,
             phases: 1,

@@ -189,8 +189,8 @@ mod tests {
             );
         }
         // Fixed-size, on 100 s means and on raw 1 Hz. Pruning, plain or with refit, is
-        // reported, not held to the target (see the README's table: +454 % and +15 % on the
-        // reference run).
+        // reported, not held to the target (CHANGELOG.md, "Reduced models": +499 %, +15 % with
+        // a refit, on the reference run).
         for r in [&rows[1], &rows[4]] {
             assert!(r.board_b100_dph < 0.5 * r.raw_b100_dph, "{}", table(&rows));
             assert!(

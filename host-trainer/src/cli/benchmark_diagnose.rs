@@ -30,7 +30,7 @@ pub struct BenchmarkDiagnoseArgs {
     #[arg(long)]
     pub out: PathBuf,
     /// Also write the report (`report.md`) to this file, e.g. a results file kept in the
-    /// repository.
+    /// repository, after a first line naming the command that wrote it.
     #[arg(long, value_name = "FILE")]
     pub results_md: Option<PathBuf>,
     /// Which recordings: the simulator's (`matched`) or the independent generator's
@@ -97,17 +97,31 @@ fn checked_alpha(alpha: Option<f64>) -> anyhow::Result<Option<f64>> {
     Ok(Some(a))
 }
 
-/// Writes `results.json` and `report.md` (`md`) into `out`, and `md` to `results_md` too.
+/// The flags of `rlg benchmark-diagnose` that take a path, with their placeholders.
+const PATH_FLAGS: &[(&str, &str)] = &[("--out", "DIR"), ("--results-md", "FILE")];
+
+/// The first line of the results file: this command, and the quick set named as such.
+fn results_header(args: &BenchmarkDiagnoseArgs) -> String {
+    super::results::header(
+        std::env::args(),
+        PATH_FLAGS,
+        args.quick
+            .then_some("the quick set: a few recordings per term, a check rather than a measure"),
+    )
+}
+
+/// Writes `results.json` and `report.md` (`md`) into `out`, and `md` after the line
+/// `header` to `results_md`.
 fn write_report(
     out: &Path,
     results_json: &str,
     md: &str,
-    results_md: Option<&Path>,
+    results_md: Option<(&Path, &str)>,
 ) -> anyhow::Result<()> {
     rlg_io::recording::write_atomic(&out.join("results.json"), results_json.as_bytes())?;
     rlg_io::recording::write_atomic(&out.join("report.md"), md.as_bytes())?;
-    if let Some(p) = results_md {
-        rlg_io::recording::write_atomic(p, md.as_bytes())?;
+    if let Some((p, header)) = results_md {
+        super::results::write(p, header, md)?;
     }
     Ok(())
 }
@@ -152,11 +166,12 @@ pub fn run(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
     let results = run_benchmark(&opts, &args.out)?;
     let md = report_markdown(&results);
+    let header = results_header(args);
     write_report(
         &args.out,
         &serde_json::to_string_pretty(&results)?,
         &md,
-        args.results_md.as_deref(),
+        args.results_md.as_deref().map(|p| (p, header.as_str())),
     )?;
     let clean: Vec<&CaseResult> = results.iter().filter(|r| r.truth == Label::None).collect();
     if !clean.is_empty() {
@@ -201,11 +216,12 @@ fn run_mismatched_set(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
     let t0 = std::time::Instant::now();
     let results = run_mismatched(&opts, &args.out)?;
     let md = mismatch_report_markdown(&results);
+    let header = results_header(args);
     write_report(
         &args.out,
         &serde_json::to_string_pretty(&results)?,
         &md,
-        args.results_md.as_deref(),
+        args.results_md.as_deref().map(|p| (p, header.as_str())),
     )?;
     calibration_png(&results, &args.out.join("calibration.png"))?;
     println!("{md}");
@@ -221,14 +237,19 @@ fn run_mismatched_set(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
 mod tests {
     use super::*;
 
-    /// `--results-md` gets the very report `report.md` gets.
+    /// `--results-md` gets the very report `report.md` gets, after the line naming the
+    /// command.
     #[test]
     fn the_results_file_is_the_report() {
         let dir = tempfile::tempdir().expect("temporary directory");
         let kept = dir.path().join("kept.md");
-        write_report(dir.path(), "[]", "| a | b |\n", Some(&kept)).expect("writes");
-        let report = std::fs::read(dir.path().join("report.md")).expect("report.md");
-        assert_eq!(std::fs::read(&kept).expect("results file"), report);
+        let header = "Written by `rlg benchmark-diagnose`.";
+        write_report(dir.path(), "[]", "| a | b |\n", Some((&kept, header))).expect("writes");
+        let report = std::fs::read_to_string(dir.path().join("report.md")).expect("report.md");
+        assert_eq!(
+            std::fs::read_to_string(&kept).expect("results file"),
+            format!("{header}\n\n{report}")
+        );
         assert_eq!(
             std::fs::read_to_string(dir.path().join("results.json")).expect("results.json"),
             "[]"

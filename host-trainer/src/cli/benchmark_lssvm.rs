@@ -1,5 +1,5 @@
-//! `rlg bench-scale`, `rlg bench-lssvm` and `rlg sparse-report`: the measurements of the
-//! README's scale, speed and reduced-model tables.
+//! `rlg bench-scale`, `rlg bench-lssvm` and `rlg sparse-report`: the LS-SVM's scale, speed and
+//! reduced models (`host-trainer/benchmarks/README.md`; figures of record in CHANGELOG.md).
 
 use std::path::PathBuf;
 

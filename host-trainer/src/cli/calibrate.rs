@@ -3,6 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
+use anyhow::Context as _;
 use clap::Args;
 
 use rlg_calibrate::report::{self, FileInfo, Inputs};
@@ -97,6 +98,31 @@ pub struct CalibrateArgs {
     /// including their headers.
     #[arg(long)]
     pub every_axis: bool,
+    /// Also write the report (`report.md`) to this file, e.g. a results file kept in the
+    /// repository, after a first line naming the command that wrote it.
+    #[arg(long, value_name = "FILE", conflicts_with = "every_axis")]
+    pub results_md: Option<PathBuf>,
+}
+
+/// The flags of `rlg calibrate` that take a path, with their placeholders.
+const PATH_FLAGS: &[(&str, &str)] = &[
+    ("--recording", "FILE"),
+    ("--test", "FILE"),
+    ("--out", "DIR"),
+    ("--model", "FILE"),
+    ("--results-md", "FILE"),
+];
+
+/// `--results-md`: the report just written to `out`, after the line naming the command.
+fn write_results_md(a: &CalibrateArgs) -> anyhow::Result<()> {
+    if let Some(p) = &a.results_md {
+        let report = a.out.join("report.md");
+        let md = std::fs::read_to_string(&report)
+            .with_context(|| format!("reading {}", report.display()))?;
+        let header = super::results::header(std::env::args(), PATH_FLAGS, None);
+        super::results::write(p, &header, &md)?;
+    }
+    Ok(())
 }
 
 fn file_info(path: &Path, samples: usize) -> anyhow::Result<FileInfo> {
@@ -122,6 +148,9 @@ pub fn run(a: &CalibrateArgs, command_line: &str) -> anyhow::Result<()> {
             t.display()
         );
     }
+    if let Some(p) = &a.results_md {
+        super::check_output_file(p, "--results-md")?;
+    }
     // The folder before the work: a path that cannot hold it fails before minutes of work.
     for f in report::prepare_out(&a.out, a.force)? {
         println!(
@@ -140,7 +169,8 @@ pub fn run(a: &CalibrateArgs, command_line: &str) -> anyhow::Result<()> {
             command_line,
             grid: &grid,
         };
-        return job.axis(&cal, test.as_ref(), &a.out, &a.name, &[]);
+        job.axis(&cal, test.as_ref(), &a.out, &a.name, &[])?;
+        return write_results_md(a);
     }
     every_axis(a, command_line, &grid)
 }

@@ -107,10 +107,18 @@ pub struct BenchmarkCloseLoopArgs {
     /// Write the Markdown report here as well.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Also write the report to this file, e.g. a results file kept in the repository, after a
+    /// first line naming the command that wrote it.
+    #[arg(long, value_name = "FILE")]
+    pub results_md: Option<PathBuf>,
 }
 
 /// Runs `rlg benchmark-close-loop`.
 pub fn run_benchmark(args: &BenchmarkCloseLoopArgs) -> anyhow::Result<()> {
+    // Checked before the run, which takes minutes.
+    if let Some(p) = &args.results_md {
+        super::check_output_file(p, "--results-md")?;
+    }
     let t0 = std::time::Instant::now();
     let cases = rlg_benchmarks::closeloop::run(&args.seed, args.per_term)?;
     let md = rlg_benchmarks::closeloop::report_markdown(&cases);
@@ -123,6 +131,14 @@ pub fn run_benchmark(args: &BenchmarkCloseLoopArgs) -> anyhow::Result<()> {
     if let Some(p) = &args.out {
         rlg_io::atomic::write(p, md.as_bytes())
             .with_context(|| format!("writing {}", p.display()))?;
+    }
+    if let Some(p) = &args.results_md {
+        let header = super::results::header(
+            std::env::args(),
+            &[("--out", "FILE"), ("--results-md", "FILE")],
+            None,
+        );
+        super::results::write(p, &header, &md)?;
     }
     Ok(())
 }

@@ -13,6 +13,7 @@ pub mod fleet;
 pub mod input;
 pub mod report;
 pub mod resample;
+pub mod results;
 pub mod simulate;
 pub mod static_repro;
 pub mod terms;

@@ -33,7 +33,7 @@ use rlg_simulate::noise::NoiseParams;
 /// [`REML_FIT_BLOCKS`] means. The likelihood's cost does not ask for it (`kalman.rs`: linear
 /// in the length); the fit's weighting of the scales does, on recordings whose slow noise the
 /// model does not describe. Neither every block unpooled nor means of at most 400 s weighs
-/// the scales as well (module README).
+/// the scales as well (CHANGELOG.md, "Diagnosis, measured and not kept").
 pub fn pooling(nb: usize, with_rrw: bool) -> usize {
     nb.div_ceil(if with_rrw {
         REML_FIT_BLOCKS.1
