@@ -342,7 +342,18 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, fig: &Figure) -> Resul
     // clipped to the plotting area, where it would cover data).
     let right_axis = if fig.y2_label.is_some() { 90 } else { 0 };
     let (x_right, y_top) = chart.backend_coord(&(xr.end, yr.end));
-    let (lx, mut ly) = (x_right + right_axis + 16, y_top);
+    let (lx, ly) = (x_right + right_axis + 16, y_top);
+    draw_legend(&root, series, (lx, ly))?;
+    root.present().map_err(draw_err)
+}
+
+/// The legend of `series` from `(lx, ly)` down: a line and/or a marker in each series'
+/// colour, and its label.
+fn draw_legend<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    series: &[Series],
+    (lx, mut ly): (i32, i32),
+) -> Result<(), PlotError> {
     let label_font: TextStyle = (FONT, 13).into_font().into();
     for (i, s) in series.iter().enumerate() {
         let color = PALETTE[i % PALETTE.len()];
@@ -365,7 +376,7 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, fig: &Figure) -> Resul
         .map_err(draw_err)?;
         ly += 20;
     }
-    root.present().map_err(draw_err)
+    Ok(())
 }
 
 /// Ticks of a log axis spanning `range` (log10 values): (log10 of the tick, its label). Every
