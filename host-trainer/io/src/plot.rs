@@ -13,9 +13,6 @@ use std::sync::OnceLock;
 /// The font family name the embedded font is registered under.
 const FONT: &str = "sans-serif";
 
-/// Pixels right of the plot kept for the legend.
-const LEGEND_WIDTH: u32 = 250;
-
 /// How a series is drawn.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Style {
@@ -238,13 +235,21 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, fig: &Figure) -> Resul
         None => 0.0..1.0,
     };
 
-    let legend = !series.is_empty();
+    // Room for the legend: its widest label, the key before it and a gap.
+    let label_font: TextStyle = (FONT, 13).into_font().into();
+    let mut legend_w = 12;
+    for s in series {
+        let (w, _) = root
+            .estimate_text_size(&s.label, &label_font)
+            .map_err(draw_err)?;
+        legend_w = legend_w.max(w + 56);
+    }
     root.fill(&WHITE).map_err(draw_err)?;
     let mut chart = ChartBuilder::on(&root)
         .caption(&fig.title, (FONT, 22))
         .margin(12)
         // Room right of the plot for the legend, so that it covers no data.
-        .margin_right(if legend { LEGEND_WIDTH } else { 12 })
+        .margin_right(legend_w)
         .x_label_area_size(50)
         .y_label_area_size(90)
         .right_y_label_area_size(if fig.y2_label.is_some() { 90 } else { 0 })
@@ -488,7 +493,7 @@ mod tests {
         assert_eq!((be(&b[16..20]), be(&b[20..24])), (640, 400));
     }
 
-    /// Text is drawn: the title band (top 30 px, centre) holds dark pixels, which needs the
+    /// Text is drawn: the title band (top 30 px) holds dark pixels, which needs the
     /// embedded font to load and rasterise.
     #[test]
     fn title_text_is_rendered() {
@@ -496,7 +501,7 @@ mod tests {
         let buf = render_rgb(&f).unwrap();
         let w = f.width as usize;
         let dark = (0..30)
-            .flat_map(|y| (w / 2 - 60..w / 2 + 60).map(move |x| (y * w + x) * 3))
+            .flat_map(|y| (0..w).map(move |x| (y * w + x) * 3))
             .filter(|&i| buf[i] < 100 && buf[i + 1] < 100 && buf[i + 2] < 100)
             .count();
         assert!(dark > 20, "{dark} dark pixels in the title band");
