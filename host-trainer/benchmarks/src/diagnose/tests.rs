@@ -209,8 +209,8 @@ fn cut_start_moves_where_the_blocks_start() {
     assert!(report_markdown(&[CaseResult { shift: 37, ..r }]).contains(said));
 }
 
-/// The quick benchmark end to end (release only: `cargo test --release -p rlg-benchmarks
-/// --lib quick_benchmark -- --ignored`, run by the test command). Regression floors a few
+/// The quick benchmark end to end (ignored by default: `cargo test --workspace --lib
+/// quick_benchmark -- --ignored`, run by the test command). Regression floors a few
 /// cases below what the quick run reaches at α 2 %: at least 15 of the 20 hidden terms
 /// named and at most 2 of the 8 clean recordings flagged.
 #[test]
