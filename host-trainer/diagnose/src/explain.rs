@@ -4,8 +4,14 @@ use super::candidates::Family;
 use super::{Figures, Finding};
 
 /// Plain-words explanation of `finding` (its own `explanation` aside), a term of family `f`
-/// significant below the ΔBIC threshold `thr`; `before` are the model's held-out figures.
-pub(super) fn explain(f: Family, finding: &Finding, thr: f64, before: &Figures) -> String {
+/// significant below the ΔBIC threshold `thr` on means of `block_s`; `before` are the model's
+/// held-out figures.
+pub(super) fn explain(
+    f: Family,
+    finding: &Finding,
+    (thr, block_s): (f64, f64),
+    before: &Figures,
+) -> String {
     let (p, u, dbic) = (&finding.parameters, &finding.uncertainty, finding.delta_bic);
     let (after, where_) = (&finding.improved, &finding.where_);
     let pu = |k: &str| {
@@ -54,7 +60,7 @@ pub(super) fn explain(f: Family, finding: &Finding, thr: f64, before: &Figures) 
         None => String::new(),
     };
     format!(
-        "{}: {mech}. Adding it changes the BIC of the whitened 100 s means by {dbic:.1} (significance threshold {thr:.1} from the noise-model bootstrap); on held-out data the 100 s stability goes from {:.2e} to {:.2e} °/h and the BIC from {:.1} to {:.1}.{wh}",
+        "{}: {mech}. Adding it changes the BIC of the whitened {block_s:.0} s means by {dbic:.1} (significance threshold {thr:.1} from the noise-model bootstrap); on held-out data the 100 s stability goes from {:.2e} to {:.2e} °/h and the BIC from {:.1} to {:.1}.{wh}",
         f.name(),
         before.b100_dph,
         after.b100_dph,
@@ -90,7 +96,7 @@ mod tests {
             improved: fig.clone(),
             explanation: String::new(),
         };
-        explain(Family::Backscatter, &finding, -3.0, &fig)
+        explain(Family::Backscatter, &finding, (-3.0, 100.0), &fig)
     }
 
     /// The text says when the finding lives on another node than the reading's, and which

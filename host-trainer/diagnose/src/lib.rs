@@ -198,9 +198,11 @@ pub struct Diagnosis {
     pub series: BlockSeries,
 }
 
-/// The recording's 100 s means and the model residuals the plots show.
+/// The recording's block means and the model residuals the plots show.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct BlockSeries {
+    /// Length of a block, s (100 s unless the record is too short for 200 of them).
+    pub block_s: f64,
     /// Block centre times, s.
     pub t_s: Vec<f64>,
     /// Recorded temperature, °C.
@@ -379,7 +381,7 @@ pub fn diagnose<'a>(
         d.evidence.notes.push(prep.faults.describe());
     }
     if let Some(b) = &prep.bursts {
-        d.evidence.notes.push(b.describe());
+        d.evidence.notes.push(prepare::describe_bursts(b));
     }
     // Further findings: the term found is added to the model (its amplitude refitted with
     // the baseline, its non-linear parameter kept) and the search runs again on what is
@@ -416,6 +418,7 @@ pub fn diagnose<'a>(
     full.terms
         .extend(d.findings.iter().filter_map(Finding::term));
     d.series = BlockSeries {
+        block_s: prep.block as f64 * prep.dt_s,
         t_s: prep.t_b.clone(),
         temp_c: prep.temp_b.clone(),
         dtemp_c_per_s: prep.dtemp_b.clone(),

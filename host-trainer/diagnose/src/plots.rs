@@ -1,4 +1,4 @@
-//! The diagnosis' figures (`rlg diagnose --plots DIR`): the model's residual of the 100 s
+//! The diagnosis' figures (`rlg diagnose --plots DIR`): the model's residual of the block
 //! means against time with the located spans, against temperature split into heating,
 //! cooling and holds, and before/after the findings.
 
@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use super::Diagnosis;
 use rlg_io::plot::{render_png, Figure, PlotError, Series, Style};
 
-/// |dT/dt| below which a 100 s block counts as a hold, °C/s (0.05 °C/min).
+/// |dT/dt| below which a block counts as a hold, °C/s (0.05 °C/min).
 const HOLD_RATE_C_PER_S: f64 = 0.05 / 60.0;
 
 /// The three figures with their file names.
@@ -33,11 +33,17 @@ fn masked(keep: &dyn Fn(usize) -> bool, v: &[f64]) -> Vec<f64> {
 fn residual_time(d: &Diagnosis, hours: &[f64]) -> Figure {
     let s = &d.series;
     let in_span = |t: f64| d.located.iter().any(|w| t >= w.t_start_s && t <= w.t_end_s);
-    let mut time = Figure::new(
-        &format!(
-            "Residual of the model, 100 s means ({} located span(s))",
-            d.located.len()
+    let spans = match d.findings.first() {
+        Some(f) => format!(
+            "{} located span(s), {} where {} is strongest",
+            d.located.len(),
+            f.where_.len(),
+            f.mechanism
         ),
+        None => format!("{} located span(s)", d.located.len()),
+    };
+    let mut time = Figure::new(
+        &format!("Residual of the model, {:.0} s means ({spans})", s.block_s),
         "time (h)",
         "residual (°/h)",
     );
@@ -85,7 +91,10 @@ fn residual_time(d: &Diagnosis, hours: &[f64]) -> Figure {
 fn residual_temperature(d: &Diagnosis) -> Figure {
     let s = &d.series;
     let mut temp = Figure::new(
-        "Residual of the model against temperature, 100 s means",
+        &format!(
+            "Residual of the model against temperature, {:.0} s means",
+            s.block_s
+        ),
         "T (°C)",
         "residual (°/h)",
     );

@@ -22,7 +22,7 @@ pub mod prepared;
 pub mod rate;
 
 pub use blocks::{block_samples, BLOCK_S, MAX_BLOCKS, MAX_SAMPLES, MIN_BLOCKS};
-pub use bursts::{find_bursts, Bursts};
+pub use bursts::{describe as describe_bursts, find_bursts, Bursts};
 pub use columns::{baseline_columns, baseline_specs, baseline_values, Column};
 pub use dequantise::{dequantise, read_quantum};
 pub use drive::DriveSeries;

@@ -15,7 +15,9 @@ use super::slow::{slow_time_only, SlowDrift, SLOW_PERIOD_OF_RECORD};
 use super::step::{step_instead, step_times, Step, StepScan};
 use crate::baseline::Baseline;
 use crate::candidates::{node_lag, Family};
-use crate::linalg::added_fit;
+use crate::linalg::{added_fit, Basis};
+use crate::noise::allan_check::allan_check;
+use crate::noise::reml::reml_noise;
 use crate::noise::whiten::Whitener;
 use crate::prepare::Prepared;
 use crate::ramp::{p_under_rrw, step_p_under_rrw, Draws};
@@ -156,6 +158,10 @@ pub(super) struct Fitted {
     /// Reduction when each temperature cycle is predicted from the others (thermal families
     /// on records of two or more cycles).
     cycle_gain: Option<f64>,
+    /// On a record of one temperature cycle whose noise model failed its check: whether white
+    /// noise and bias instability, refitted beside the term, describe the residual (the term
+    /// is then what the check saw).
+    explains_departure: bool,
 }
 
 /// What a pass concluded from its families' best points.
@@ -263,6 +269,7 @@ impl Judge<'_> {
             },
             gain: r0 - r1,
             cycle_gain: None,
+            explains_departure: false,
         }
     }
 
@@ -299,6 +306,10 @@ impl Judge<'_> {
             }
             _ => None,
         };
+        let explains_departure = f.is_thermal()
+            && cycles.is_none()
+            && !self.noise.trusted()
+            && self.explains_departure(&term)?;
         Ok(Fitted {
             family: f,
             point: i,
@@ -307,7 +318,43 @@ impl Judge<'_> {
             heldout,
             gain,
             cycle_gain,
+            explains_departure,
         })
+    }
+
+    /// Whether white noise and bias instability, fitted by REML beside `term`, pass the Allan
+    /// check on the residual with `term` added. A record of one temperature cycle has no
+    /// held-out cycle to show that a thermal effect recurs; what it can show is that the
+    /// departure from white + B that made the noise model fail was the effect: with the term
+    /// in, the residual is white + B again, which slow noise a thermal term absorbs only by
+    /// chance (the bootstrap threshold the term already passed is under the noise refitted
+    /// with rate random walk).
+    fn explains_departure(&self, term: &Term) -> Result<bool, DiagnoseError> {
+        let Some((f, nl)) = nonlinear_of(term) else {
+            return Ok(false);
+        };
+        let base = self.base;
+        let mut cols = base.cols_b.clone();
+        cols.extend(base.candidate_blocks(f, &nl)?);
+        let Some(g) = reml_noise(
+            &cols,
+            &base.prep.y_b,
+            base.prep.block,
+            base.prep.dt_s,
+            false,
+        ) else {
+            return Ok(false);
+        };
+        let basis = Basis::new(&cols);
+        let resid = basis.residual(&base.prep.y_b);
+        let check = allan_check(
+            &g,
+            &resid,
+            base.block_s(),
+            |x| basis.residual(x),
+            self.opts.seed,
+        );
+        Ok(check.is_some_and(|c| c.fits()))
     }
 
     /// Weighs a significant family's fit: whether it is separable from the record's slow
@@ -328,7 +375,7 @@ impl Judge<'_> {
         let record_s = prep.nb() as f64 * self.base.block_s();
         let separable = trusted
             || match f {
-                _ if f.is_thermal() => fit.cycle_gain.is_some(),
+                _ if f.is_thermal() => fit.cycle_gain.is_some() || fit.explains_departure,
                 Family::Periodic => nonlinear_of(&fit.term)
                     .is_some_and(|(_, nl)| nl[0] < record_s * SLOW_PERIOD_OF_RECORD),
                 Family::Heteroscedastic => true,

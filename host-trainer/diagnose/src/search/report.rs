@@ -138,7 +138,12 @@ pub(super) fn finding(found: &Fitted, judge: &Judge<'_>) -> Result<Finding, Diag
         improved: found.heldout.figures.clone(),
         explanation: String::new(),
     };
-    finding.explanation = explain(f, &finding, judge.sig.threshold(f), &judge.base_ho.figures);
+    finding.explanation = explain(
+        f,
+        &finding,
+        (judge.sig.threshold(f), judge.base.block_s()),
+        &judge.base_ho.figures,
+    );
     Ok(finding)
 }
 
