@@ -4,7 +4,7 @@
 use compensator_core::Feature;
 use rlg_train::dataset;
 use rlg_train::export::{table_source, to_f32, F32Model};
-use rlg_train::model::{ModelFile, Provenance};
+use rlg_train::model::{ModelFile, Provenance, Removal};
 
 /// A generated table, committed and compiled into this test: the Table 1 static model.
 mod generated {
@@ -219,4 +219,10 @@ fn compiled_table_equals_the_conversion() {
             t.as_model().predict_dph(&x).to_bits()
         );
     }
+    // The stated constant is the model's bias at the reference temperature, which the table
+    // (only the variation removed) keeps in its output.
+    assert_eq!(generated::REFERENCE_BIAS_DPH, m.reference_dph);
+    assert_eq!(generated::REFERENCE_TEMP_C, 25.0);
+    assert_eq!(generated::REMOVES_WHOLE_BIAS, m.removes == Removal::Whole);
+    assert_eq!(m.correction_dph(&[25.0]), 0.0);
 }

@@ -14,7 +14,7 @@ use std::path::Path;
 
 use compensator_core::{Feature, ModelRef, ModelSpec};
 
-use crate::export_c::{c_header, CName};
+use crate::export_c::{c_header_with, CName, Reference};
 use crate::features::{self, FeatureError};
 use crate::model::{self, ModelError, ModelFile};
 
@@ -287,11 +287,8 @@ pub fn to_f32<const D: usize>(m: &ModelFile) -> Result<F32Model<D>, ExportError>
         }
         Ok(out)
     };
-    let folded = if folds_reference(m.reference_dph) {
-        m.reference_dph
-    } else {
-        0.0
-    };
+    let kept = m.kept_dph();
+    let folded = if folds_reference(kept) { kept } else { 0.0 };
     let mut inv_scale = [0.0f32; D];
     let mut linear = [0.0f32; D];
     let mut lo = [0.0f32; D];
@@ -317,7 +314,7 @@ pub fn to_f32<const D: usize>(m: &ModelFile) -> Result<F32Model<D>, ExportError>
         input_hi: hi,
         gamma: f32_of(1.0 / (2.0 * l.sigma * l.sigma), "gamma")?,
         bias_dph: f32_of(l.bias_dph - folded, "bias_dph")?,
-        reference_dph: f32_of(m.reference_dph - folded, "reference_dph")?,
+        reference_dph: f32_of(kept - folded, "reference_dph")?,
         rate_filter: features::rate_filter(m.rate_tau_s, m.dt_s)?,
     };
     let support = l
@@ -406,7 +403,45 @@ fn render<const D: usize>(m: &ModelFile, command: &str) -> Result<String, Export
     );
     let _ = writeln!(o);
     o.push_str(&table_item(&t)?);
+    let r = reference(m);
+    let _ = writeln!(o);
+    let _ = writeln!(
+        o,
+        "/// The reference condition's temperature, °C: 25 °C clamped into the trained range, at \
+         dT/dt = 0."
+    );
+    let _ = writeln!(o, "pub const REFERENCE_TEMP_C: f64 = {:?};", r.temp_c);
+    let _ = writeln!(
+        o,
+        "/// The bias there, °/h: what the output keeps when only the variation is removed."
+    );
+    let _ = writeln!(o, "pub const REFERENCE_BIAS_DPH: f64 = {:?};", r.bias_dph);
+    let _ = writeln!(
+        o,
+        "/// Whether the board removes the whole bias (output centred on zero) or only its \
+         variation\n/// about [`REFERENCE_BIAS_DPH`] (output centred on it)."
+    );
+    let _ = writeln!(
+        o,
+        "pub const REMOVES_WHOLE_BIAS: bool = {};",
+        r.removes_whole
+    );
     Ok(o)
+}
+
+/// The reference condition of `m` as the exported tables state it.
+pub fn reference(m: &ModelFile) -> Reference {
+    let temp_c = m
+        .lssvm
+        .features
+        .iter()
+        .position(|f| f == "temp_c")
+        .map_or(model::REFERENCE_TEMP_C, |d| m.reference_input[d]);
+    Reference {
+        temp_c,
+        bias_dph: m.reference_dph,
+        removes_whole: m.removes == model::Removal::Whole,
+    }
 }
 
 /// The `pub const MODEL` item of a converted table (doc line, attributes, all fields,
@@ -570,7 +605,8 @@ pub fn c_header_source_named(
         name: &CName,
         what: &str,
     ) -> Result<String, ExportError> {
-        c_header(&to_f32::<D>(m)?.as_model(), name, what).map_err(ExportError::Table)
+        c_header_with(&to_f32::<D>(m)?.as_model(), name, what, Some(&reference(m)))
+            .map_err(ExportError::Table)
     }
     check_precision(m)?;
     match m.lssvm.dim() {

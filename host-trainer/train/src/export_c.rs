@@ -172,10 +172,37 @@ pub fn c_header<const D: usize>(
     name: &CName,
     what: &str,
 ) -> Result<String, TableError> {
+    c_header_with(t, name, what, None)
+}
+
+/// The bias at the reference condition and what the board removes, as a header states them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Reference {
+    /// The reference temperature, °C.
+    pub temp_c: f64,
+    /// The bias there, °/h.
+    pub bias_dph: f64,
+    /// Whether the board removes the whole bias (else only its variation about `bias_dph`).
+    pub removes_whole: bool,
+}
+
+/// [`c_header`] with the reference stated as documented constants (`<NAME>_REFERENCE_TEMP_C`,
+/// `<NAME>_REFERENCE_BIAS_DPH`, `<NAME>_REMOVES_WHOLE_BIAS`), where a model file gives it.
+/// Macros rather than `static const`s: a translation unit that does not read them must not
+/// warn under `-Wall -Wextra`.
+pub fn c_header_with<const D: usize>(
+    t: &ModelRef<'_, D>,
+    name: &CName,
+    what: &str,
+    reference: Option<&Reference>,
+) -> Result<String, TableError> {
     t.validate()?;
     let mut o = String::new();
     header_comment(&mut o, t, name, what);
     spec_constants(&mut o, t, name);
+    if let Some(r) = reference {
+        reference_constants(&mut o, r, name);
+    }
     api_table(&mut o, t, name);
     fixed_form(&mut o, t, name);
     let _ = writeln!(o, "#endif /* {}_MODEL_TABLE_H */", name.upper());
@@ -214,6 +241,32 @@ fn header_comment<const D: usize>(o: &mut String, t: &ModelRef<'_, D>, name: &CN
         o,
         " * rlg_update(&state, temp_c, gyro_dph, &out) once every {} s. */",
         s.rate_filter.dt_s
+    );
+}
+
+/// The reference bias, its temperature and what the board removes.
+fn reference_constants(o: &mut String, r: &Reference, name: &CName) {
+    let u = name.upper();
+    let _ = writeln!(
+        o,
+        "/* The bias at the reference condition (T = REFERENCE_TEMP_C, dT/dt = 0), deg/h, and what\n\
+         \x20* the board removes: REMOVES_WHOLE_BIAS 1: raw - f(x), the output centred on zero;\n\
+         \x20* 0: raw - (f(x) - REFERENCE_BIAS_DPH), the output centred on REFERENCE_BIAS_DPH. */"
+    );
+    let _ = writeln!(
+        o,
+        "#define {u}_REFERENCE_TEMP_C {}",
+        c_float(r.temp_c as f32)
+    );
+    let _ = writeln!(
+        o,
+        "#define {u}_REFERENCE_BIAS_DPH {}",
+        c_float(r.bias_dph as f32)
+    );
+    let _ = writeln!(
+        o,
+        "#define {u}_REMOVES_WHOLE_BIAS {}",
+        u8::from(r.removes_whole)
     );
 }
 

@@ -151,11 +151,44 @@ pub struct ModelFile {
     pub training: TrainingSummary,
     /// Where the model came from.
     pub provenance: Provenance,
-    /// The board's f32 departure this table is held to when the record's noise allows a
-    /// coarser one than [`crate::export::EXPORT_LIMIT_DPH`] (a MEMS gyro's), °/h; absent: the
-    /// export's own limit.
+    /// The board's f32 departure this table is held to when the record's noise and the
+    /// model's CV error allow a coarser one than [`crate::export::EXPORT_LIMIT_DPH`] (a MEMS
+    /// gyro's), °/h; absent: the export's own limit.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub f32_limit_dph: Option<f64>,
+    /// What the board removes: only the variation about `reference_dph` (absent, the
+    /// default) or the whole bias.
+    #[serde(default, skip_serializing_if = "Removal::is_variation")]
+    pub removes: Removal,
+}
+
+/// What the board removes from the raw rate.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Removal {
+    /// f(x) − f(reference): the output keeps the bias at the reference condition. An RLG's
+    /// constant holds the Earth rate and is calibrated at each start; only the temperature
+    /// variation belongs in a table.
+    #[default]
+    Variation,
+    /// f(x): the output is centred on zero. A MEMS gyro's turn-on bias of thousands of °/h
+    /// dominates, and the table is the only place that knows it.
+    Whole,
+}
+
+impl Removal {
+    /// Whether only the variation is removed (the model file then does not name it).
+    pub fn is_variation(&self) -> bool {
+        *self == Self::Variation
+    }
+
+    /// How the report says it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Self::Variation => "only the bias' variation about its value at the reference",
+            Self::Whole => "the whole bias",
+        }
+    }
 }
 
 /// The reference condition for `features`: temperatures (T, lead-corrected T, play state) at
@@ -260,6 +293,7 @@ impl ModelFile {
             training,
             provenance,
             f32_limit_dph: None,
+            removes: Removal::Variation,
         };
         m.validate()?;
         Ok(m)
@@ -270,9 +304,19 @@ impl ModelFile {
         self.lssvm.predict(x)
     }
 
-    /// The correction the board subtracts, f(x) − reference_dph, °/h (no clamping).
+    /// The correction the board subtracts, °/h (no clamping): f(x) − reference_dph, or f(x)
+    /// where the board removes the whole bias.
     pub fn correction_dph(&self, x: &[f64]) -> f64 {
-        self.predict_dph(x) - self.reference_dph
+        self.predict_dph(x) - self.kept_dph()
+    }
+
+    /// The constant the board's output keeps, °/h: `reference_dph`, or 0 where the board
+    /// removes the whole bias.
+    pub fn kept_dph(&self) -> f64 {
+        match self.removes {
+            Removal::Variation => self.reference_dph,
+            Removal::Whole => 0.0,
+        }
     }
 
     /// Checks shapes, feature names and finiteness.

@@ -56,3 +56,11 @@ pub const MODEL: compensator_core::ModelTable<11, 1> = compensator_core::ModelTa
     ],
     crc32: 0x13bfe5ee,
 };
+
+/// The reference condition's temperature, °C: 25 °C clamped into the trained range, at dT/dt = 0.
+pub const REFERENCE_TEMP_C: f64 = 25.0;
+/// The bias there, °/h: what the output keeps when only the variation is removed.
+pub const REFERENCE_BIAS_DPH: f64 = -7.109852924180378;
+/// Whether the board removes the whole bias (output centred on zero) or only its variation
+/// about [`REFERENCE_BIAS_DPH`] (output centred on it).
+pub const REMOVES_WHOLE_BIAS: bool = false;
