@@ -141,7 +141,7 @@ const RUN_S: usize = 1000;
 /// Blocked CV within one training cycle for means of `block_s` s: 5 folds of interleaved runs
 /// of [`RUN_S`] (at least [`MIN_RUNS`] means), shorter runs when the span holds fewer than
 /// ten of them. Means of 100 s give [`CV`], the reproduction's choice.
-fn blocked_within_a_cycle(n: usize, block_s: usize) -> Validation {
+pub fn blocked_within_a_cycle(n: usize, block_s: usize) -> Validation {
     let run = RUN_S.div_ceil(block_s.max(1)).max(MIN_RUNS);
     let run = run.min(n / 10).max(MIN_RUNS.min(n / 5).max(1));
     Validation::Blocked {

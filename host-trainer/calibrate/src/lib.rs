@@ -56,7 +56,7 @@ use rlg_train::protocol::TRAIN_BLOCK;
 
 pub use averaging::{averaging_s, Averaging};
 pub use board::board_output;
-pub use cv::pool_even;
+pub use cv::{blocked_within_a_cycle, pool_even};
 pub use error::{chain, CalibrateError};
 pub use heldout::{allan_of, HeldOutScorer};
 pub use input::{at_board_rate, for_static, sampling, Sampling};

@@ -2,6 +2,7 @@
 
 use rlg_eval::baselines::StepwiseOptions;
 use rlg_train::lssvm::tune::Grid;
+use rlg_train::model::Removal;
 use rlg_train::protocol::{RATE_TAU_S, SUPPORT_VECTORS};
 
 use crate::error::{ensure, CalibrateError};
@@ -52,6 +53,9 @@ pub struct Options {
     /// Pool the training means into cells of temperature and dT/dt ([`crate::pool_even`]) so that
     /// slow stretches of an uneven ramp do not dominate the fit.
     pub even_temperature: bool,
+    /// What the board table removes: the bias' variation about its value at the reference
+    /// (an RLG's convention) or the whole bias (a MEMS gyro's).
+    pub remove: Removal,
 }
 
 impl Default for Options {
@@ -67,6 +71,7 @@ impl Default for Options {
             from_s: None,
             to_s: None,
             even_temperature: false,
+            remove: Removal::Variation,
         }
     }
 }

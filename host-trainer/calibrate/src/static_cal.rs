@@ -27,7 +27,7 @@ use rlg_train::lssvm::sparse::train_with_trend;
 use rlg_train::lssvm::tune::{
     fold_indices, log_space, CvPoint, Grid, Tuned, Validation, PARSIMONY,
 };
-use rlg_train::model::{ModelFile, Provenance};
+use rlg_train::model::{ModelFile, Provenance, Removal};
 
 use crate::cv::{poly_cv_dph, poly_degree, poly_of};
 use crate::error::{ensure, CalibrateError};
@@ -49,6 +49,8 @@ pub struct StaticOptions {
     /// The dT/dt estimator's time constant written into the table (the board runs it for its
     /// status flags even when the model does not use dT/dt), s.
     pub rate_tau_s: f64,
+    /// What the board table removes ([`crate::Options::remove`]).
+    pub remove: Removal,
 }
 
 impl Default for StaticOptions {
@@ -58,6 +60,7 @@ impl Default for StaticOptions {
             budget: rlg_train::protocol::SUPPORT_VECTORS,
             grid: Grid::default(),
             rate_tau_s: rlg_train::protocol::RATE_TAU_S,
+            remove: Removal::Variation,
         }
     }
 }
@@ -354,7 +357,7 @@ fn choose_table(
             &[true],
         )?;
         // The board runs at 1 Hz whatever the spacing of the points.
-        let model = ModelFile::from_trained(
+        let mut model = ModelFile::from_trained(
             lssvm,
             &p.x,
             &p.y,
@@ -363,6 +366,7 @@ fn choose_table(
             None,
             provenance.clone(),
         )?;
+        model.removes = opts.remove;
         let prec = export::precision(&model)?;
         let dev = prec.deviation_dph;
         if dev <= prec.limit_dph {
@@ -457,7 +461,7 @@ pub fn calibrate_static(
         poly_degree,
         poly_train_rms_dph: rms(&poly_train).unwrap_or(f64::NAN),
         poly_cv_dph,
-        reference_folded: export::folds_reference(model.reference_dph),
+        reference_folded: export::folds_reference(model.kept_dph()),
         tuned,
         table_point: point,
         refused,

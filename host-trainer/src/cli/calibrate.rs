@@ -16,7 +16,7 @@ use rlg_io::progress::progress;
 use rlg_io::recording::{Axis, Recording};
 use rlg_train::export_c::CName;
 use rlg_train::lssvm::tune::Grid;
-use rlg_train::model::Provenance;
+use rlg_train::model::{Provenance, Removal};
 
 /// Arguments of `rlg calibrate`.
 #[derive(Debug, Args)]
@@ -102,6 +102,31 @@ pub struct CalibrateArgs {
     /// repository, after a first line naming the command that wrote it.
     #[arg(long, value_name = "FILE", conflicts_with = "every_axis")]
     pub results_md: Option<PathBuf>,
+    /// What the board removes: `variation`, the bias' change from its value at 25 °C (an
+    /// RLG, whose constant holds the Earth rate and is calibrated at each start; the output
+    /// stays centred on that value), or `whole`, the whole bias (a MEMS gyro, whose turn-on
+    /// bias dominates; the output is centred on zero). Tables state both the value and the
+    /// choice.
+    #[arg(long, value_enum, default_value_t = Remove::Variation)]
+    pub remove: Remove,
+}
+
+/// `--remove`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Remove {
+    /// Only the variation about the bias at the reference temperature.
+    Variation,
+    /// The whole bias.
+    Whole,
+}
+
+impl From<Remove> for Removal {
+    fn from(r: Remove) -> Self {
+        match r {
+            Remove::Variation => Removal::Variation,
+            Remove::Whole => Removal::Whole,
+        }
+    }
 }
 
 /// The flags of `rlg calibrate` that take a path, with their placeholders.
@@ -249,7 +274,10 @@ fn every_axis(a: &CalibrateArgs, command_line: &str, grid: &Grid) -> anyhow::Res
             axes.len()
         );
         match job.axis(&axis.recording, test, &a.out.join(slug), &name, &[note]) {
-            Ok(()) => done.push((slug.clone(), name)),
+            Ok(()) => done.push(report::ImuAxis {
+                slug: slug.clone(),
+                c_name: name,
+            }),
             Err(e) => {
                 eprintln!("error: axis {}: {e:#}", axis.name);
                 failed.push(axis.name.clone());
@@ -257,11 +285,11 @@ fn every_axis(a: &CalibrateArgs, command_line: &str, grid: &Grid) -> anyhow::Res
         }
     }
     if !done.is_empty() {
-        let path = a.out.join("imu.h");
-        rlg_io::atomic::write(&path, imu_header(&done).as_bytes())?;
+        let [h, rs] = report::write_imu(&a.out, &done)?;
         println!(
-            "\nwrote {} (includes the header of each calibrated axis)",
-            path.display()
+            "\nwrote {h} and {rs} to {} (the C header and the Rust module of every calibrated \
+             axis)",
+            a.out.display()
         );
     }
     anyhow::ensure!(
@@ -290,19 +318,6 @@ fn test_axis<'a>(tests: &'a [Axis], name: &str) -> anyhow::Result<&'a Recording>
                     .join(", ")
             )
         })
-}
-
-/// `imu.h`: one include per calibrated axis, so a firmware takes the IMU's tables at once.
-fn imu_header(axes: &[(String, CName)]) -> String {
-    let mut h = String::from(
-        "/* The board tables of every calibrated gyro axis; written by rlg calibrate \
-         --every-axis. */\n#ifndef RLG_IMU_TABLES_H\n#define RLG_IMU_TABLES_H\n\n",
-    );
-    for (slug, name) in axes {
-        h.push_str(&format!("#include \"{slug}/table.h\" /* {name}_* */\n"));
-    }
-    h.push_str("\n#endif\n");
-    h
 }
 
 /// One calibration's settings.
@@ -353,6 +368,7 @@ impl Job<'_> {
             from_s: a.from_s,
             to_s: a.to_s,
             even_temperature: a.even_temperature,
+            remove: a.remove.into(),
             ..Options::default()
         };
         let pb = progress("tuning σ, c");
@@ -395,6 +411,7 @@ impl Job<'_> {
             budget: a.budget as usize,
             grid: *self.grid,
             rate_tau_s: a.rate_tau_s,
+            remove: a.remove.into(),
         };
         let pb = progress("tuning σ, c (static)");
         let mut c = calibrate_static(cal, test, &opts, provenance, &pb)?;

@@ -6,6 +6,7 @@ use super::summary::{read_offs, Interval, Summary};
 use super::Inputs;
 use crate::static_cal::StaticCalibration;
 use crate::{Calibration, HeldOut, Model};
+use rlg_train::model::Removal;
 
 fn fmt(v: Option<f64>, prec: usize) -> String {
     v.filter(|v| v.is_finite())
@@ -160,6 +161,38 @@ fn allan(c: &Calibration) -> String {
     s
 }
 
+/// What the board removes, the constant its output keeps, and where the held-out output was
+/// centred.
+fn removal(c: &Calibration) -> String {
+    let mut s = removal_of(&c.board_model);
+    let board = c.rows.iter().position(|row| row.model == Model::Board);
+    if let Some(out) = board.and_then(|k| c.series.outputs.get(k)) {
+        if !out.is_empty() {
+            let mean = out.iter().sum::<f64>() / out.len() as f64;
+            let _ = write!(s, " Held out, its output's mean is {mean:.4e} °/h.");
+        }
+    }
+    s
+}
+
+/// What the board table of `m` removes and the constant its output keeps.
+fn removal_of(m: &rlg_train::model::ModelFile) -> String {
+    let r = rlg_train::export::reference(m);
+    match m.removes {
+        Removal::Whole => format!(
+            "The board removes the whole bias (`--remove whole`): its output is raw − f(x), \
+             centred on zero (the bias at {:.1} °C, f = {:.6e} °/h, is removed with the rest).",
+            r.temp_c, r.bias_dph
+        ),
+        Removal::Variation => format!(
+            "The board removes only the bias' variation (`--remove variation`): its output is \
+             raw − (f(x) − B), centred on B = {:.6e} °/h, the bias at {:.1} °C and dT/dt = 0 \
+             (`REFERENCE_BIAS_DPH` in the tables).",
+            r.bias_dph, r.temp_c
+        ),
+    }
+}
+
 /// The board table(s) and the figures.
 fn board(c: &Calibration) -> String {
     let mut s = String::new();
@@ -181,6 +214,7 @@ fn board(c: &Calibration) -> String {
             ""
         }
     );
+    let _ = writeln!(s, "{}\n", removal(c));
     if let Some(d) = &c.diagnosed_board {
         let l = &d.model.lssvm;
         let _ = writeln!(
@@ -244,7 +278,7 @@ pub fn static_markdown(c: &StaticCalibration, inputs: &Inputs, summary: &Summary
     let _ = writeln!(
         md,
         "\nBoard table: {} support vectors on [T]; f32 correction within {:.2e} °/h (limit \
-         {:.1e}){}; reference output {:.4} °/h.\n",
+         {:.1e}){}. {}\n",
         c.model.lssvm.support.len(),
         c.f32_deviation_dph,
         c.f32_limit_dph,
@@ -253,7 +287,7 @@ pub fn static_markdown(c: &StaticCalibration, inputs: &Inputs, summary: &Summary
         } else {
             ""
         },
-        c.model.reference_dph
+        removal_of(&c.model)
     );
     md
 }

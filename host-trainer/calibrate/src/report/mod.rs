@@ -4,6 +4,7 @@
 //! first, so a path that cannot hold it fails before any work.
 
 mod figures;
+mod imu;
 mod markdown;
 mod summary;
 
@@ -18,6 +19,7 @@ use rlg_train::model::ModelFile;
 use crate::static_cal::StaticCalibration;
 use crate::{CalibrateError, Calibration};
 
+pub use imu::{imu_header, imu_module, write_imu, ImuAxis};
 pub use markdown::{comparison, console_tail, markdown, static_console, static_markdown};
 pub use summary::{
     static_summary, summary, AllanReadOffs, BoardSummary, HeldOutSummary, Interval, ModelSummary,
@@ -82,9 +84,9 @@ fn write_summary(dir: &Path, sum: &Summary) -> Result<(), CalibrateError> {
 }
 
 /// Whether `name` is a file a calibration folder's writer makes (`report.md`, `summary.json`,
-/// `model*.json`, `table*.rs`, `table*.h`, PNG figures, `imu.h`).
+/// `model*.json`, `table*.rs`, `table*.h`, PNG figures, `imu.h`, `imu.rs`).
 pub fn is_own_file(name: &str) -> bool {
-    matches!(name, "report.md" | "summary.json" | "imu.h")
+    matches!(name, "report.md" | "summary.json" | "imu.h" | "imu.rs")
         || name.ends_with(".png")
         || (name.starts_with("model") && name.ends_with(".json"))
         || (name.starts_with("table") && (name.ends_with(".rs") || name.ends_with(".h")))

@@ -142,6 +142,11 @@ pub struct BoardSummary {
     pub reference_folded: bool,
     /// The model's output at the reference condition, °/h.
     pub reference_dph: f64,
+    /// The reference temperature, °C.
+    pub reference_temp_c: f64,
+    /// What the board removes: `variation` (its output centred on `reference_dph`) or
+    /// `whole` (centred on zero).
+    pub removes: rlg_train::model::Removal,
     /// CV points refused for f32 precision: (σ, c, departure °/h).
     pub refused: Vec<(f64, f64, f64)>,
     /// Held-out bias stability of the output compensated through the board's f32 evaluation,
@@ -198,8 +203,10 @@ pub(super) fn board_summary(
         support_vectors: m.lssvm.support.len(),
         f32_deviation_dph: dev,
         f32_limit_dph: limit,
-        reference_folded: export::folds_reference(m.reference_dph),
+        reference_folded: export::folds_reference(m.kept_dph()),
         reference_dph: m.reference_dph,
+        reference_temp_c: export::reference(m).temp_c,
+        removes: m.removes,
         refused: refused.to_vec(),
     }
 }
