@@ -13,10 +13,11 @@ use rlg_calibrate::{
 use rlg_diagnose::{diagnose, DiagnoseError, Options as DiagnoseOptions, PhysicsModel};
 use rlg_io::progress::progress;
 use rlg_io::recording::Recording;
+use rlg_train::export;
 use rlg_train::model::Provenance;
 
 use crate::features::{augmented_features, Inputs};
-use crate::score::{train_and_score, train_and_score_on, Protocol, Scored};
+use crate::score::{train_and_cv, train_and_score, train_and_score_on, Protocol, Scored};
 
 /// Why the close loop on a calibration failed.
 #[derive(Debug, thiserror::Error)]
@@ -55,44 +56,60 @@ pub fn diagnosed_row(
     model: &PhysicsModel,
     provenance: &Provenance,
 ) -> Result<(), CloseLoopError> {
-    if matches!(c.split.held_out, HeldOut::Nothing) {
-        c.notes.push(
-            "--diagnose: nothing is held out, so a diagnosed-feature model cannot be compared."
-                .into(),
-        );
-        return Ok(());
-    }
+    let one_cycle = matches!(c.split.held_out, HeldOut::Nothing);
     let end = c.split.train_span_s.1;
     let Some(feats) = diagnosed_inputs(cal, end, model, c)? else {
         return Ok(());
     };
-    let protocol = Protocol {
+    let mut protocol = Protocol {
         budget: Some(c.options.budget),
         ..Protocol::default()
     };
+    if one_cycle {
+        // Nothing to hold out: both models are judged by the calibration's own blocked CV
+        // on its own means, under its board's f32 limit.
+        let n = c.samples / c.train_block_s.max(1);
+        protocol.block = c.train_block_s;
+        protocol.validation = rlg_calibrate::blocked_within_a_cycle(n, c.train_block_s);
+        protocol.f32_limit_dph = c.board.f32_limit_dph;
+    }
     let score = |inputs: &Inputs| match test {
+        _ if one_cycle => train_and_cv(cal, inputs, &protocol, provenance),
         Some(t) => train_and_score_on(cal, t, inputs, &protocol, provenance),
         None => train_and_score(cal, end, inputs, &protocol, provenance),
     };
     let pb = progress("close loop: base and diagnosed features");
     let base = score(&Inputs::base())?;
-    let aug = score(&feats)?;
+    let mut aug = score(&feats)?;
     pb.finish_and_clear();
     if !protocol.adopts(&base, &aug) {
         c.notes.push(format!(
             "--diagnose: the diagnosed features [{}] are not adopted: their CV rms \
-             {:.3e} °/h is not {:.0} % below the [T, dT/dt] model's {:.3e} °/h (held out, for the \
-             record: {:.3e} against {:.3e} °/h).",
+             {:.3e} °/h is not {:.0} % below the [T, dT/dt] model's {:.3e} °/h{}.",
             aug.inputs.describe().join(", "),
             aug.cv_rms_dph,
             100.0 * protocol.adopt_margin,
             base.cv_rms_dph,
-            aug.test_b100_dph,
-            base.test_b100_dph
+            if one_cycle {
+                " (one cycle: nothing held out)".to_string()
+            } else {
+                format!(
+                    " (held out, for the record: {:.3e} against {:.3e} °/h)",
+                    aug.test_b100_dph, base.test_b100_dph
+                )
+            }
         ));
         return Ok(());
     }
+    if one_cycle && protocol.f32_limit_dph > export::EXPORT_LIMIT_DPH {
+        aug.model.f32_limit_dph = Some(protocol.f32_limit_dph);
+    }
+    aug.model.removes = c.options.remove;
     let table = diagnosed_table(&aug, c);
+    if one_cycle {
+        cv_row(&base, &aug, &table, c);
+        return Ok(());
+    }
     add_row(test.unwrap_or(cal), &base, &aug, &table, c)?;
     Ok(())
 }
@@ -157,6 +174,25 @@ fn diagnosed_table(aug: &Scored, c: &mut Calibration) -> String {
         ),
         Err(e) => format!("Its board table is not written: {e}."),
     }
+}
+
+/// The adopted model's row on a record of one cycle: TRAINING and CV only, and the note that
+/// says so.
+fn cv_row(base: &Scored, aug: &Scored, table: &str, c: &mut Calibration) {
+    let described = aug.inputs.describe().join(", ");
+    c.notes.push(format!(
+        "--diagnose: the close loop adopts the diagnosed features [{described}] (CV rms {:.3e} \
+         against {:.3e} °/h for [T, dT/dt] on the same {} s means and folds); one cycle holds \
+         nothing to hold out, so the row has CV figures only. {table}",
+        aug.cv_rms_dph, base.cv_rms_dph, c.train_block_s
+    ));
+    c.rows.push(ModelRow {
+        model: Model::Diagnosed,
+        detail: format!("[{described}], σ = {:.3}, c = {:.3}", aug.sigma, aug.c),
+        train_rms_dph: Some(aug.train_rms_dph),
+        cv_rms_dph: Some(aug.cv_rms_dph),
+        held_out: None,
+    });
 }
 
 /// The adopted model's row: its output on `stream`'s held-out samples (from the close loop's

@@ -41,5 +41,7 @@ pub use calibrate::{calibrate_diagnosed, diagnosed_row, CloseLoopError};
 pub use features::{
     augmented_features, feature_for, suggest, suggest_from_term, Inputs, Role, Suggestion, BASE,
 };
-pub use score::{first_cycle_end_s, train_and_score, train_and_score_on, Protocol, Scored};
+pub use score::{
+    first_cycle_end_s, train_and_cv, train_and_score, train_and_score_on, Protocol, Scored,
+};
 pub use session::{close_loop, session_text, HeldOutFrom, Session};

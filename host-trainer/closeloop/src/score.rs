@@ -30,6 +30,11 @@ pub struct Protocol {
     /// An augmented model is adopted only when its CV RMS is below the base model's by this
     /// fraction.
     pub adopt_margin: f64,
+    /// Seconds per training mean.
+    pub block: usize,
+    /// The largest |board f32 − model f64| a chosen model may show, °/h (a MEMS gyro's
+    /// calibration allows a coarser one than an RLG's, `rlg_calibrate`'s board limit).
+    pub f32_limit_dph: f64,
 }
 
 impl Default for Protocol {
@@ -43,6 +48,8 @@ impl Default for Protocol {
             validation: protocol::CV,
             budget: Some(protocol::SUPPORT_VECTORS),
             adopt_margin: 0.02,
+            block: protocol::TRAIN_BLOCK,
+            f32_limit_dph: export::F32_BUDGET_DPH,
         }
     }
 }
@@ -110,7 +117,7 @@ fn fit(
     let sel = RecordingSelection {
         from_s: None,
         to_s: Some(train_to_s),
-        block: protocol::TRAIN_BLOCK,
+        block: protocol.block,
         rate_tau_s: protocol::RATE_TAU_S,
     };
     let data = dataset::from_recording_with(rec, &sel, feats)?;
@@ -171,7 +178,7 @@ fn fit(
             continue;
         };
         let dev = export::f32_deviation_dph(&model)?;
-        if dev <= export::F32_BUDGET_DPH {
+        if dev <= protocol.f32_limit_dph {
             chosen = Some((p, model, dev));
             break;
         }
@@ -179,7 +186,7 @@ fn fit(
     let (point, model, board_deviation_dph) = chosen.ok_or_else(|| {
         CalibrateError::NoBoardTable(format!(
             "no (sigma, c) of the grid gives a model the board evaluates within {:.0e} °/h",
-            export::F32_BUDGET_DPH
+            protocol.f32_limit_dph
         ))
     })?;
     Ok(Fitted {
@@ -203,6 +210,39 @@ pub fn train_and_score(
     let fitted = fit(rec, train_to_s, inputs, protocol, provenance)?;
     let split = rec.time_s.partition_point(|t| *t <= train_to_s);
     judge(fitted, inputs, rec, split)
+}
+
+/// Trains on all of `rec` with `inputs` and scores it by cross-validation only: a record of one
+/// temperature cycle holds nothing to hold out. The held-out fields are empty (`test_from` is
+/// the record's length, the stabilities NaN / `None`).
+pub fn train_and_cv(
+    rec: &Recording,
+    inputs: &Inputs,
+    protocol: &Protocol,
+    provenance: &Provenance,
+) -> Result<Scored, CalibrateError> {
+    let end = rec.time_s.last().copied().unwrap_or(f64::NAN);
+    let Fitted {
+        tuned,
+        point,
+        model,
+        board_deviation_dph,
+        ..
+    } = fit(rec, end, inputs, protocol, provenance)?;
+    Ok(Scored {
+        inputs: inputs.clone(),
+        sigma: point.sigma,
+        c: point.c,
+        cv_rms_dph: point.cv_rms_dph,
+        board_deviation_dph,
+        train_rms_dph: model.training.rms_dph,
+        tuned,
+        model,
+        test_b100_dph: f64::NAN,
+        test_from: rec.len(),
+        test_correction_dph: Vec::new(),
+        board_b100_dph: None,
+    })
 }
 
 /// Trains on all of `calibration` with `inputs` and scores all of `test`: a later recording
