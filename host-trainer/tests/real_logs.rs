@@ -80,19 +80,21 @@ fn imu(hz: f64, seconds: f64, seed: u64) -> Imu {
         temp_c: Vec::with_capacity(n),
         rate_dph: [Vec::new(), Vec::new(), Vec::new()],
     };
-    let mut prev = sensor;
+    // The loop: a play operator of 10 °C on the die's temperature (backlash of the package's
+    // stress), its state ±1 on the heating and cooling branches.
+    let (half, mut play) = (5.0f64, sensor);
     for k in 0..n {
         let t = k as f64 * dt;
         // The die follows the chamber with 2 min of lag; the gyro's proof mass 5 min behind it.
         sensor += (chamber_c(t) - sensor) * dt / 120.0;
         inner += (sensor - inner) * dt / 300.0;
-        let rate_c_per_s = (sensor - prev) / dt;
-        prev = sensor;
+        play = play.clamp(sensor - half, sensor + half);
         let d = sensor - 25.0;
         let bias = [
             3000.0 + 110.0 * d + 0.3 * d * d,
-            // A heating/cooling loop: the bias depends on the direction of the ramp.
-            -1500.0 + 80.0 * d + 4000.0 * rate_c_per_s,
+            // A heating/cooling loop of ±1 000 °/h: the bias depends on the ramp's direction
+            // and keeps it until the temperature has turned by the play's width.
+            -1500.0 + 80.0 * d + 1000.0 * (sensor - play) / half,
             500.0 - 95.0 * (inner - 25.0),
         ];
         for a in 0..3 {
@@ -195,53 +197,151 @@ fn one_hour_three_axis_chamber_cycle() {
     );
     for (axis, _) in AXES {
         let s = summary(&out.join(axis));
+        // The table states its constant and what it removes.
+        assert_eq!(s["board"]["removes"], "variation", "{axis}");
+        let h = std::fs::read_to_string(out.join(axis).join("table.h")).unwrap();
+        let upper = format!("RLG_{}", axis.to_uppercase());
+        assert!(
+            h.contains(&format!("#define {upper}_REFERENCE_BIAS_DPH "))
+                && h.contains(&format!("#define {upper}_REMOVES_WHOLE_BIAS 0")),
+            "{axis}: the header does not state its reference"
+        );
+    }
+    // Only the variation removed: the board's output is centred on the stated constant.
+    for (k, (axis, _)) in AXES.iter().enumerate() {
+        let reference = summary(&out.join(axis))["board"]["reference_dph"]
+            .as_f64()
+            .unwrap();
+        let mean = board_mean(&out.join(axis), &log, k, 2);
+        assert!(
+            (mean - reference).abs() < 100.0,
+            "{axis}: output centred on {mean:.1} °/h, the stated constant is {reference:.1}"
+        );
+    }
+    let module = std::fs::read_to_string(out.join("imu.rs")).unwrap();
+    for (axis, _) in AXES {
+        assert!(
+            module.contains(&format!(
+                "pub mod {axis} {{\n    include!(\"{axis}/table.rs\");"
+            )),
+            "{module}"
+        );
+    }
+    for (axis, _) in AXES {
+        let s = summary(&out.join(axis));
         let l = cv_rms(&s, "LS-SVM");
         // Bias moves by about 10⁴ °/h over the cycle; a model worth flashing leaves a few
         // hundred °/h at most (the noise of a 1 s sample is 180 °/h).
         assert!(l.is_finite() && l < 400.0, "{axis}: LS-SVM CV rms {l}");
     }
-    compile_together(&out);
+    evaluate_together(&out, &log);
 }
 
-/// The three axes' headers and the C API header in one translation unit, warnings as
-/// errors: a collision of names is a redefinition error.
-fn compile_together(out: &Path) {
-    let main = out.join("main.c");
-    std::fs::write(
-        &main,
-        "#include \"imu.h\"\n\
-         int main(void) {\n\
-         \x20   const void *tables[] = {&rlg_imu_gyro_x_model, &rlg_imu_gyro_y_model,\n\
-         \x20                           &rlg_imu_gyro_z_model};\n\
-         \x20   return tables[0] == tables[1] || tables[1] == tables[2];\n\
-         }\n",
-    )
-    .unwrap();
-    let include = Path::new(env!("CARGO_MANIFEST_DIR")).join("../compensator-core/capi/include");
-    let status = Command::new("cc")
-        .args([
-            "-std=c99",
-            "-Wall",
-            "-Wextra",
-            "-Werror",
-            "-fsyntax-only",
-            "-I",
-        ])
-        .arg(&include)
+/// The C program of [`evaluate_together`]: `imu_eval REPLAY AXIS` runs the replay file's
+/// samples (tests/src/replay.rs format) through axis AXIS's table of `imu.h` with the C API and
+/// writes each output's (rate bits, correction bits, status) as little-endian u32s.
+const IMU_EVAL_C: &str = r#"#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "imu.h"
+
+int main(int argc, char **argv) {
+    const rlg_table *tables[3] = {&rlg_imu_gyro_x_model, &rlg_imu_gyro_y_model,
+                                  &rlg_imu_gyro_z_model};
+    if (argc != 3 || tables[0] == tables[1] || tables[1] == tables[2]) return 64;
+    FILE *f = fopen(argv[1], "rb");
+    if (!f) return 66;
+    static unsigned char buf[1 << 20];
+    size_t len = fread(buf, 1, sizeof buf, f);
+    fclose(f);
+    uint32_t count;
+    memcpy(&count, buf + 8, 4);
+    if (len < 12 || len != 12 + 8 * (size_t)count) return 65;
+    static rlg_compensator state;
+    if (rlg_init(&state, tables[atoi(argv[2])]) != RLG_OK) return 2;
+    for (uint32_t k = 0; k < count; k++) {
+        float t, g;
+        rlg_output o;
+        memcpy(&t, buf + 12 + 8 * (size_t)k, 4);
+        memcpy(&g, buf + 16 + 8 * (size_t)k, 4);
+        if (rlg_update(&state, t, g, &o) != RLG_OK) return 3;
+        uint32_t w[3];
+        memcpy(&w[0], &o.rate_dph, 4);
+        memcpy(&w[1], &o.correction_dph, 4);
+        w[2] = o.status;
+        fwrite(w, sizeof w, 1, stdout);
+    }
+    return 0;
+}
+"#;
+
+/// The three axes' headers included together through `imu.h` (warnings as errors: a collision
+/// of names is a redefinition error), linked with the C API's host library, and each axis run
+/// through its own table on the log's own samples (every other one, as the board's 1 Hz):
+/// every output bit for bit what the axis' Rust table gives through `compensator_core`.
+fn evaluate_together(out: &Path, log: &Imu) {
+    use compensator_core::{Compensator, SensorLimits};
+    use tests::capi;
+    use tests::replay::{self, ReplaySample};
+    if !capi::tool_or_skip("the IMU headers from C", "cc") {
+        return;
+    }
+    capi::build_library(None, &[], &out.join("librlg_compensator.a")).expect("the C API builds");
+    std::fs::write(out.join("imu_eval.c"), IMU_EVAL_C).unwrap();
+    let exe = out.join("imu_eval");
+    let mut cc = Command::new("cc");
+    cc.args(["-std=c99", "-O2", "-Wall", "-Wextra", "-Werror", "-I"])
+        .arg(capi::include_dir())
         .arg("-I")
         .arg(out)
-        .arg(&main)
-        .status();
-    match status {
-        Ok(s) => assert!(s.success(), "the three headers do not compile together"),
-        Err(e) => {
-            let allowed = std::env::var("RLG_ALLOW_MISSING_TOOLS")
-                .is_ok_and(|v| !v.is_empty() && v != "0" && v != "false");
-            assert!(allowed, "cc is missing ({e}): run `bash tests/setup.sh`");
-            eprintln!(
-                "\n!!! SKIPPED compiling the headers: no cc and RLG_ALLOW_MISSING_TOOLS set !!!\n"
-            );
-        }
+        .arg(out.join("imu_eval.c"))
+        .arg(out.join("librlg_compensator.a"))
+        .args(capi::HOST_NATIVE_LIBS)
+        .arg("-o")
+        .arg(&exe);
+    capi::run_compiler(&mut cc).unwrap_or_else(|e| panic!("{e}"));
+    for (k, (axis, _)) in AXES.iter().enumerate() {
+        let samples: Vec<ReplaySample> = (0..log.time_s.len())
+            .step_by(2)
+            .map(|i| ReplaySample {
+                temp_c: log.temp_c[i] as f32,
+                rate_dph: log.rate_dph[k][i] as f32,
+            })
+            .collect();
+        let file = out.join(format!("{axis}.replay"));
+        replay::write(&file, &samples).unwrap();
+        let run = Command::new(&exe)
+            .arg(&file)
+            .arg(k.to_string())
+            .output()
+            .unwrap();
+        assert!(run.status.success(), "{axis}: imu_eval {:?}", run.status);
+        let got = capi::read_outputs(&run.stdout);
+        let m = rlg_train::model::ModelFile::read(&out.join(axis).join("model.json")).unwrap();
+        let t = rlg_train::export::to_f32::<2>(&m).unwrap();
+        let mut rust = Compensator::new(t.as_model(), SensorLimits::DEFAULT);
+        let want: Vec<capi::OutputBits> = samples
+            .iter()
+            .map(|x| {
+                let o = rust.update(x.temp_c, x.rate_dph);
+                (o.rate_dph.to_bits(), o.correction_dph.to_bits(), o.status.0)
+            })
+            .collect();
+        assert_eq!(got.len(), want.len(), "{axis}");
+        let same = got.iter().zip(&want).filter(|(a, b)| a == b).count();
+        assert_eq!(
+            same,
+            want.len(),
+            "{axis}: {same} of {} outputs bit-identical",
+            want.len()
+        );
+        // The table compensates: the board's output is centred on the stated constant.
+        let compensated = want.iter().filter(|w| w.2 == 0).count();
+        assert!(
+            compensated > want.len() / 2,
+            "{axis}: {compensated} compensated"
+        );
     }
 }
 
@@ -292,12 +392,43 @@ fn semicolon_export_with_decimal_commas() {
         "Drehrate",
         "--temp-col",
         "Temperatur",
+        "--remove",
+        "whole",
         "--out",
         out.to_str().unwrap(),
     ]);
     assert_eq!(code, Some(0), "{stdout}\n{stderr}");
-    let l = cv_rms(&summary(&out), "LS-SVM");
+    let sum = summary(&out);
+    let l = cv_rms(&sum, "LS-SVM");
     assert!(l.is_finite() && l < 400.0, "LS-SVM CV rms {l}");
+    // The whole bias removed: the header says so, and the board's output over the record is
+    // centred on zero, not on the bias at 25 °C (−1 500 °/h).
+    assert_eq!(sum["board"]["removes"], "whole");
+    let h = std::fs::read_to_string(out.join("table.h")).unwrap();
+    assert!(h.contains("#define RLG_REMOVES_WHOLE_BIAS 1"), "{h}");
+    let reference = sum["board"]["reference_dph"].as_f64().unwrap();
+    let mean = board_mean(&out, &log, 1, 1);
+    assert!(
+        mean.abs() < 50.0 && reference < -1000.0,
+        "board output's mean {mean:.1} °/h (reference {reference:.1})"
+    );
+}
+
+/// The mean output of the board table in `out` (its `model.json` through
+/// `compensator_core`) over axis `axis` of `log`, every `step`-th sample, °/h.
+fn board_mean(out: &Path, log: &Imu, axis: usize, step: usize) -> f64 {
+    use compensator_core::{Compensator, SensorLimits};
+    let m = rlg_train::model::ModelFile::read(&out.join("model.json")).unwrap();
+    let t = rlg_train::export::to_f32::<2>(&m).unwrap();
+    let mut board = Compensator::new(t.as_model(), SensorLimits::DEFAULT);
+    let outputs: Vec<f64> = (0..log.time_s.len())
+        .step_by(step)
+        .map(|i| {
+            let o = board.update(log.temp_c[i] as f32, log.rate_dph[axis][i] as f32);
+            f64::from(o.rate_dph)
+        })
+        .collect();
+    outputs.iter().sum::<f64>() / outputs.len() as f64
 }
 
 /// A logger that wakes for 3 s at 50 Hz every 3 minutes: no 1 Hz stream, so the static
@@ -477,14 +608,59 @@ fn one_hour_cycle_is_diagnosed() {
         "--recording",
         file.to_str().unwrap(),
         "--rate-col",
-        "imu.gyro.x",
+        "imu.gyro.y",
     ]);
     assert_eq!(code, Some(0), "{stdout}\n{stderr}");
-    assert!(stdout.starts_with("verdict: "), "{stdout}");
     assert!(
         stdout.contains("means of 10 s instead of 100 s means"),
         "{stdout}"
     );
+    assert!(
+        stdout.starts_with("verdict: missing_physics") && stdout.contains("\nhysteresis: "),
+        "the loop is not named:\n{stdout}"
+    );
+    assert!(stdout.contains("whitened 10 s means"), "{stdout}");
+}
+
+/// `calibrate --diagnose` on the looped axis of one cycle: the diagnosis names the loop, and
+/// the model with the play operator's input is adopted by CV (nothing is held out), its CV
+/// error under the [T, dT/dt] table's of the same size and far under temperature alone.
+#[test]
+fn the_loop_is_modelled_where_cv_adopts_it() {
+    let d = dir("loop");
+    let file = d.join("imu.tsv");
+    write_tsv(&file, &imu(2.0, 3600.0, 1), true);
+    let out = d.join("cal");
+    let (code, stdout, stderr) = rlg(&[
+        "calibrate",
+        "--recording",
+        file.to_str().unwrap(),
+        "--rate-col",
+        "imu.gyro.y",
+        "--diagnose",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{stdout}\n{stderr}");
+    let s = summary(&out);
+    // The loop model is a table of the board's size: it is compared with the [T, dT/dt] table
+    // of the same size (the exact LS-SVM's hundreds of vectors do not fit the board).
+    let (poly, table, looped) = (
+        cv_rms(&s, "polynomial"),
+        cv_rms(&s, "board table"),
+        cv_rms(&s, "diagnosed"),
+    );
+    assert!(
+        looped < table && looped < 0.5 * poly,
+        "CV rms: loop model {looped:.1}, [T, dT/dt] table {table:.1}, polynomial {poly:.1} °/h"
+    );
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(
+        report.contains("the close loop adopts the diagnosed features")
+            && report.contains("temp_play_c"),
+        "{report}"
+    );
+    assert!(out.join("table_diagnosed.h").exists());
 }
 
 /// One to two hours of a MEMS chamber cycle at 2 Hz with random bias, gain, curvature, dT/dt
