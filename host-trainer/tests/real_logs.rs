@@ -742,3 +742,41 @@ fn short_record_diagnosis_false_alarms_and_power() {
     assert!(alarms <= 2, "{alarms} false alarms of 12");
     assert!(found >= 5, "only {found} of 12 hidden gradients found");
 }
+
+/// `--static` on the looped axis fits T alone through the loop: it says so, with the two
+/// branches' gap, and the figure it writes shows them in their own colours.
+#[test]
+fn static_fit_through_a_loop_says_so() {
+    let d = dir("static_loop");
+    let file = d.join("imu.tsv");
+    write_tsv(&file, &imu(2.0, 3600.0, 1), true);
+    let out = d.join("cal");
+    let (code, stdout, stderr) = rlg(&[
+        "calibrate",
+        "--recording",
+        file.to_str().unwrap(),
+        "--rate-col",
+        "imu.gyro.y",
+        "--static",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0), "{stdout}\n{stderr}");
+    assert!(stdout.contains("a heating/cooling loop"), "{stdout}");
+    assert!(out.join("static_fit.png").exists());
+    let (code, stdout, _) = rlg(&[
+        "calibrate",
+        "--recording",
+        file.to_str().unwrap(),
+        "--rate-col",
+        "imu.gyro.x",
+        "--static",
+        "--out",
+        d.join("x").to_str().unwrap(),
+    ]);
+    assert_eq!(code, Some(0));
+    assert!(
+        !stdout.contains("heating/cooling loop"),
+        "no loop on x:\n{stdout}"
+    );
+}

@@ -10,7 +10,10 @@ use tests::budgets::{self, ImageOptions};
 use tests::{firmware, replay};
 
 // Only `MODEL` is checked here; the reference constants are checked in `export_roundtrip.rs`.
-#[expect(dead_code, reason = "the table's reference constants are not read by this test")]
+#[expect(
+    dead_code,
+    reason = "the table's reference constants are not read by this test"
+)]
 mod table1 {
     include!("generated/table1_model.rs");
 }

@@ -33,14 +33,21 @@ pub struct PhaseRms {
 /// Phase of each window of `window` samples: 0 heating, 1 cooling, 2 hold.
 pub fn window_phases(time_s: &[f64], rate_c_per_s: &[f64], window: usize) -> Vec<usize> {
     let r = gapless_block_means(time_s, rate_c_per_s, window);
-    let mut mags: Vec<f64> = rate_c_per_s.iter().map(|v| v.abs()).collect();
+    classify(&r, rate_c_per_s)
+}
+
+/// Phase of each rate of `rates` (°C/s): 0 heating, 1 cooling, 2 hold, the hold threshold from
+/// the record's own rates `all` (see the module doc).
+pub fn classify(rates: &[f64], all: &[f64]) -> Vec<usize> {
+    let mut mags: Vec<f64> = all.iter().map(|v| v.abs()).collect();
     mags.sort_by(f64::total_cmp);
     let p95 = mags
         .get((mags.len() as f64 * 0.95) as usize)
         .copied()
         .unwrap_or(0.0);
     let hold = (HOLD_FRACTION * p95).min(HOLD_MAX_C_PER_S);
-    r.iter()
+    rates
+        .iter()
         .map(|v| {
             if v.abs() <= hold {
                 2

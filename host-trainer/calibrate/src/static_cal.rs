@@ -31,6 +31,7 @@ use rlg_train::model::{ModelFile, Provenance, Removal};
 
 use crate::cv::{poly_cv_dph, poly_degree, poly_of};
 use crate::error::{ensure, CalibrateError};
+use crate::phases::classify;
 
 /// A block of a continuous stream is a soak plateau when T moves less than this over it, °C.
 pub const PLATEAU_MAX_C: f64 = 0.05;
@@ -70,6 +71,8 @@ impl Default for StaticOptions {
 pub struct StaticCalibration {
     /// Points trained on: (T °C, output °/h).
     pub points: Vec<(f64, f64)>,
+    /// Each point's phase: 0 heating, 1 cooling, 2 hold.
+    pub point_phases: Vec<usize>,
     /// How the points were made, in words.
     pub points_from: String,
     /// The CV scheme, in words.
@@ -103,11 +106,20 @@ pub struct StaticCalibration {
     pub notes: Vec<String>,
 }
 
+/// The (T, output) points of a record, how they were made and each one's thermal phase.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StaticPoints {
+    /// (T °C, output °/h), in time order.
+    pub points: Vec<(f64, f64)>,
+    /// How they were made, in words.
+    pub from: String,
+    /// Each point's phase: 0 heating, 1 cooling, 2 hold ([`crate::phases::classify`] of the
+    /// temperature's rate across it, or between its neighbours for one row per point).
+    pub phases: Vec<usize>,
+}
+
 /// The (T, output) points of `rec` (see the module doc).
-pub fn points_of(
-    rec: &Recording,
-    block: usize,
-) -> Result<(Vec<(f64, f64)>, String), CalibrateError> {
+pub fn points_of(rec: &Recording, block: usize) -> Result<StaticPoints, CalibrateError> {
     ensure!(block >= 1, Option, "--block must be at least 1");
     let good: Vec<usize> = (0..rec.len())
         .filter(|&k| rec.temp_c[k].is_finite() && rec.rate_dph[k].is_finite())
@@ -123,14 +135,27 @@ pub fn points_of(
     steps.sort_by(f64::total_cmp);
     let dt = steps.get(steps.len() / 2).copied().unwrap_or(1.0);
     if dt > 1.1 {
-        let pts = good
+        let points = good
             .iter()
             .map(|&k| (rec.temp_c[k], rec.rate_dph[k]))
             .collect();
-        return Ok((
-            pts,
-            format!("each row a point (a row every {dt:.0} s: burst or plateau means)"),
-        ));
+        // A row's rate of temperature: between its neighbours (one-sided at the ends).
+        let rates: Vec<f64> = (0..good.len())
+            .map(|i| {
+                let (a, b) = (good[i.saturating_sub(1)], good[(i + 1).min(good.len() - 1)]);
+                let span = rec.time_s[b] - rec.time_s[a];
+                if span > 0.0 {
+                    (rec.temp_c[b] - rec.temp_c[a]) / span
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        return Ok(StaticPoints {
+            points,
+            from: format!("each row a point (a row every {dt:.0} s: burst or plateau means)"),
+            phases: classify(&rates, &rates),
+        });
     }
     // Soak plateaus: blocks over which the temperature moved less than PLATEAU_MAX_C, so the
     // rate terms a static model leaves out are near zero in them. Without enough such blocks
@@ -144,27 +169,41 @@ pub fn points_of(
         .collect();
     if held.len() >= MIN_PLATEAU_POINTS {
         let n_held = held.len();
-        return Ok((
-            held,
-            format!(
+        return Ok(StaticPoints {
+            phases: vec![2; n_held],
+            points: held,
+            from: format!(
                 "means of {block} samples of a 1 Hz stream where T moved less than \
                  {PLATEAU_MAX_C} °C (soak plateaus; {n_held} of {} blocks)",
                 blocks.len()
             ),
-        ));
+        });
     }
-    let pts: Vec<(f64, f64)> = blocks
+    let points: Vec<(f64, f64)> = blocks
         .iter()
         .map(|c| (mean(c, &rec.temp_c), mean(c, &rec.rate_dph)))
         .collect();
-    Ok((
-        pts,
-        format!(
+    let rates: Vec<f64> = blocks
+        .iter()
+        .map(|c| {
+            let (a, b) = (c[0], c[c.len() - 1]);
+            let span = rec.time_s[b] - rec.time_s[a];
+            if span > 0.0 {
+                (rec.temp_c[b] - rec.temp_c[a]) / span
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    Ok(StaticPoints {
+        points,
+        from: format!(
             "means of {block} samples of a 1 Hz stream, ramps included (only {} blocks held T \
              within {PLATEAU_MAX_C} °C)",
             held.len()
         ),
-    ))
+        phases: classify(&rates, &rates),
+    })
 }
 
 fn validation_for(n: usize) -> Validation {
@@ -185,6 +224,8 @@ pub const MAX_POINTS: usize = 4000;
 struct Points {
     /// (T °C, output °/h).
     raw: Vec<(f64, f64)>,
+    /// Each point's phase (see [`StaticPoints::phases`]).
+    phases: Vec<usize>,
     /// How they were made, in words.
     from: String,
     names: Vec<String>,
@@ -196,7 +237,11 @@ struct Points {
 /// The points of `cal`, checked: enough of them, over a sweep of temperature, few enough to
 /// solve exactly.
 fn checked_points(cal: &Recording, block: usize) -> Result<Points, CalibrateError> {
-    let (points, points_from) = points_of(cal, block)?;
+    let StaticPoints {
+        points,
+        from: points_from,
+        phases,
+    } = points_of(cal, block)?;
     let n = points.len();
     let (lo, hi) = points
         .iter()
@@ -221,7 +266,41 @@ fn checked_points(cal: &Recording, block: usize) -> Result<Points, CalibrateErro
         y: points.iter().map(|p| p.1).collect(),
         t: points.iter().map(|p| p.0).collect(),
         raw: points,
+        phases,
         from: points_from,
+    })
+}
+
+/// A note when the heating and the cooling points sit apart about the temperature-only fit `f`:
+/// their mean residuals differ by over four standard errors (on at least five points each), a
+/// loop the model fits straight through. Points neighbouring in time share slow noise, so the
+/// standard error is optimistic; the note warns, it does not claim a mechanism.
+fn loop_note(p: &Points, f: &dyn Fn(f64) -> f64) -> Option<String> {
+    let branch = |phase: usize| -> Option<(f64, f64, usize)> {
+        let r: Vec<f64> = p
+            .raw
+            .iter()
+            .zip(&p.phases)
+            .filter(|(_, k)| **k == phase)
+            .map(|((t, y), _)| y - f(*t))
+            .collect();
+        let n = r.len();
+        (n >= 5).then(|| {
+            let m = r.iter().sum::<f64>() / n as f64;
+            let v = r.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1) as f64;
+            (m, v / n as f64, n)
+        })
+    };
+    let ((mh, vh, nh), (mc, vc, nc)) = (branch(0)?, branch(1)?);
+    let (gap, se) = (mh - mc, (vh + vc).sqrt());
+    (gap.abs() > 4.0 * se).then(|| {
+        format!(
+            "The heating points ({nh}) sit {gap:+.3e} °/h from the cooling points ({nc}) about \
+             the temperature-only fit ({:.1} standard errors): a heating/cooling loop a model of \
+             T alone fits straight through. A record sampled throughout calibrates with dT/dt \
+             without --static, and `--diagnose` models a loop where cross-validation adopts it.",
+            gap.abs() / se
+        )
     })
 }
 
@@ -439,10 +518,11 @@ pub fn calibrate_static(
         &opts.grid,
         (model.training.rms_dph, point.cv_rms_dph),
     ));
+    notes.extend(loop_note(&p, &|t| model.predict_dph(&[t])));
     let (test_points, held_out_rms_dph) = match test {
         Some(r) => {
             let r = crate::input::for_static(r, "the test recording", &mut notes)?;
-            let (tp, _) = points_of(&r, opts.block)?;
+            let tp = points_of(&r, opts.block)?.points;
             let e = |f: &dyn Fn(f64) -> f64| {
                 rms(&tp.iter().map(|(t, y)| y - f(*t)).collect::<Vec<_>>()).unwrap_or(f64::NAN)
             };
@@ -453,6 +533,7 @@ pub fn calibrate_static(
     };
     Ok(StaticCalibration {
         points: p.raw,
+        point_phases: p.phases,
         points_from: p.from,
         validation: match validation {
             Validation::LeaveOneOut => "leave-one-out (fewer than 25 points)".to_string(),

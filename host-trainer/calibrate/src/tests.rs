@@ -171,8 +171,10 @@ fn even_temperature_calibrates_and_says_so() {
 #[test]
 fn static_on_a_continuous_stream_takes_the_soak_plateaus() {
     let rec = chamber(2, 0.002, 5);
-    let (pts, from) = static_cal::points_of(&rec, 100).unwrap();
+    let p = static_cal::points_of(&rec, 100).unwrap();
+    let (pts, from) = (p.points, p.from);
     assert!(from.contains("soak plateaus"), "{from}");
+    assert!(p.phases.iter().all(|&k| k == 2), "plateaus are holds");
     // Holds at −10 and 50 °C only: 180 of the 324 blocks (the ramps' 144 left out).
     assert!(pts
         .iter()

@@ -245,8 +245,10 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, fig: &Figure) -> Resul
         legend_w = legend_w.max(w + 56);
     }
     root.fill(&WHITE).map_err(draw_err)?;
+    // The title over the whole width (the chart's own caption is centred on the plot beside
+    // the legend, and a long title ran off the image's left edge).
+    let root = root.titled(&fig.title, (FONT, 22)).map_err(draw_err)?;
     let mut chart = ChartBuilder::on(&root)
-        .caption(&fig.title, (FONT, 22))
         .margin(12)
         // Room right of the plot for the legend, so that it covers no data.
         .margin_right(legend_w)

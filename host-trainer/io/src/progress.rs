@@ -1,4 +1,5 @@
-//! Progress bars on stderr for the long steps (tuning, benchmarks); indicatif hides them
+//! Progress bars and spinners on stderr for the long steps (reading, tuning, diagnosing,
+//! benchmarks); indicatif hides them
 //! when stderr is not a terminal, so logs and pipes stay clean.
 
 use indicatif::{ProgressBar, ProgressStyle};
@@ -11,5 +12,17 @@ pub fn progress(what: &str) -> ProgressBar {
         pb.set_style(style.progress_chars("=> "));
     }
     pb.set_message(what.to_string());
+    pb
+}
+
+/// A spinner on stderr for a step of unknown length (reading a large file, a diagnosis), with
+/// its elapsed time; invisible when stderr is not a terminal. Call `finish_and_clear` after.
+pub fn spinner(what: &str) -> ProgressBar {
+    let pb = ProgressBar::new_spinner();
+    if let Ok(style) = ProgressStyle::with_template("{spinner} {msg} ({elapsed})") {
+        pb.set_style(style);
+    }
+    pb.set_message(what.to_string());
+    pb.enable_steady_tick(std::time::Duration::from_millis(120));
     pb
 }

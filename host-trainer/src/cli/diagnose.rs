@@ -102,7 +102,10 @@ pub fn run(args: &DiagnoseArgs) -> anyhow::Result<()> {
         phases: usize::from(args.phases),
         ..Options::default()
     };
-    let d = diagnose(rec, &model, &opts)?;
+    let pb = rlg_io::progress::spinner("diagnosing");
+    let d = diagnose(rec, &model, &opts);
+    pb.finish_and_clear();
+    let d = d?;
     println!(
         "verdict: {}",
         serde_json::to_value(d.verdict)?.as_str().unwrap_or("?")

@@ -110,7 +110,10 @@ pub fn read_recording(path: &Path, input: &InputArgs) -> anyhow::Result<Recordin
 pub fn read_every_axis(path: &Path, input: &InputArgs) -> anyhow::Result<Axes> {
     let mut opts = input.options();
     opts.every_axis = true;
-    let axes = read_axes(path, &opts)?;
+    let pb = rlg_io::progress::spinner(&format!("reading {}", path.display()));
+    let axes = read_axes(path, &opts);
+    pb.finish_and_clear();
+    let axes = axes?;
     print_report(path, &axes);
     Ok(axes)
 }
@@ -119,7 +122,10 @@ pub fn read_every_axis(path: &Path, input: &InputArgs) -> anyhow::Result<Axes> {
 /// refused) and prints on standard error what was detected (`note:`) and the warnings that
 /// do not stop a command (`warning:`), each naming the file.
 pub fn read_axes_cli(path: &Path, input: &InputArgs) -> anyhow::Result<Axes> {
-    let axes = read_axes(path, &input.options())?;
+    let pb = rlg_io::progress::spinner(&format!("reading {}", path.display()));
+    let axes = read_axes(path, &input.options());
+    pb.finish_and_clear();
+    let axes = axes?;
     print_report(path, &axes);
     Ok(axes)
 }

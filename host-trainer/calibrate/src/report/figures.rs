@@ -12,6 +12,32 @@ fn centred(v: &[f64]) -> Vec<f64> {
     v.iter().map(|x| x - m).collect()
 }
 
+/// Whether the board table's held-out window means lie within 1 % of the raw output's spread of
+/// the LS-SVM's everywhere: drawn, its line would hide the LS-SVM's, so one line stands for both.
+fn board_coincides(c: &Calibration) -> bool {
+    let of = |m: Model| {
+        c.rows
+            .iter()
+            .position(|r| r.model == m)
+            .and_then(|k| c.series.outputs.get(k))
+            .filter(|o| !o.is_empty())
+    };
+    let (Some(raw), Some(lssvm), Some(board)) =
+        (of(Model::Raw), of(Model::Lssvm), of(Model::Board))
+    else {
+        return false;
+    };
+    let (lo, hi) = raw
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(*v), b.max(*v))
+        });
+    let (l, b) = (centred(lssvm), centred(board));
+    l.iter()
+        .zip(&b)
+        .all(|(x, y)| (x - y).abs() <= 0.01 * (hi - lo))
+}
+
 /// The figures of a dynamic calibration, written into `dir`; their file names.
 pub(super) fn figures(c: &Calibration, dir: &Path) -> Result<Vec<String>, CalibrateError> {
     let mut files = Vec::new();
@@ -32,18 +58,23 @@ pub(super) fn figures(c: &Calibration, dir: &Path) -> Result<Vec<String>, Calibr
             "rate − mean (°/h)",
         );
         let phases = &s.phase;
+        let board_on_lssvm = board_coincides(c);
         for (r, out) in c.rows.iter().zip(&s.outputs) {
             let drawn = [Model::Raw, Model::Stepwise, Model::Lssvm, Model::Board];
             if !drawn.contains(&r.model) || out.is_empty() {
                 continue;
             }
+            if r.model == Model::Board && board_on_lssvm {
+                continue;
+            }
             let m = centred(out);
-            fig.series.push(Series::new(
-                r.model.name(),
-                th.clone(),
-                m.clone(),
-                Style::Line,
-            ));
+            let label = if r.model == Model::Lssvm && board_on_lssvm {
+                "LS-SVM and board table (one line)".to_string()
+            } else {
+                r.model.name().to_string()
+            };
+            fig.series
+                .push(Series::new(&label, th.clone(), m.clone(), Style::Line));
             if r.model != Model::Board {
                 for (p, name) in ["heating", "cooling", "hold"].iter().enumerate() {
                     let (xs, ys): (Vec<f64>, Vec<f64>) = tc
@@ -149,9 +180,25 @@ pub(super) fn static_figure(c: &StaticCalibration, dir: &Path) -> Result<String,
         .map(|i| lo + (hi - lo) * f64::from(i) / 200.0)
         .collect();
     let mut fig = Figure::new("Static characterisation", "T (°C)", "output (°/h)");
-    let (px, py): (Vec<f64>, Vec<f64>) = c.points.iter().copied().unzip();
-    fig.series
-        .push(Series::new("training points", px, py, Style::Points));
+    // The training points by phase: a heating/cooling loop shows as two branches that a
+    // temperature-only model can only split the difference of.
+    for (phase, label) in ["heating", "cooling", "hold"].iter().enumerate() {
+        let (px, py): (Vec<f64>, Vec<f64>) = c
+            .points
+            .iter()
+            .zip(&c.point_phases)
+            .filter(|(_, k)| **k == phase)
+            .map(|(p, _)| *p)
+            .unzip();
+        if !px.is_empty() {
+            fig.series.push(Series::new(
+                &format!("training points, {label}"),
+                px,
+                py,
+                Style::Points,
+            ));
+        }
+    }
     if !c.test_points.is_empty() {
         let (tx, ty): (Vec<f64>, Vec<f64>) = c.test_points.iter().copied().unzip();
         fig.series
