@@ -780,3 +780,44 @@ fn static_fit_through_a_loop_says_so() {
         "no loop on x:\n{stdout}"
     );
 }
+
+/// `train-fleet` takes calibrate's flags: a folder of two IMU logs (tab-separated, named
+/// columns) calibrated with `--remove whole`, and characterised with `--static`.
+#[test]
+fn train_fleet_takes_calibrates_flags() {
+    let d = dir("fleet");
+    let logs = d.join("logs");
+    std::fs::create_dir_all(&logs).unwrap();
+    for seed in [11, 12] {
+        write_tsv(
+            &logs.join(format!("imu{seed}.tsv")),
+            &imu(2.0, 3600.0, seed),
+            true,
+        );
+    }
+    let run = |out: &str, extra: &[&str]| {
+        let out = d.join(out);
+        let mut args = vec![
+            "train-fleet",
+            "--dir",
+            logs.to_str().unwrap(),
+            "--rate-col",
+            "imu.gyro.x",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let (code, stdout, stderr) = rlg(&args);
+        assert_eq!(code, Some(0), "{stdout}\n{stderr}");
+        out
+    };
+    let out = run("dynamic", &["--remove", "whole"]);
+    for seed in [11, 12] {
+        let s = summary(&out.join(format!("imu{seed}")));
+        assert_eq!(s["board"]["removes"], "whole", "imu{seed}");
+    }
+    let out = run("static", &["--static"]);
+    let md = std::fs::read_to_string(out.join("summary.md")).unwrap();
+    assert_eq!(md.matches("nothing (static)").count(), 2, "{md}");
+    assert!(out.join("imu11").join("static_fit.png").exists());
+}

@@ -17,7 +17,18 @@ use rlg_train::model::Provenance;
 
 use crate::error::{chain, ensure, CalibrateError};
 use crate::report::{self, FileInfo, Inputs};
+use crate::static_cal::{calibrate_static, StaticOptions};
 use crate::{calibrate, HeldOut, Model, Options};
+
+/// What each gyro of the fleet gets: the dynamic calibration or the static (temperature-only)
+/// characterisation, with their options.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FleetModel {
+    /// [`crate::calibrate`].
+    Dynamic(Options),
+    /// [`calibrate_static`].
+    Static(StaticOptions),
+}
 
 /// Reads and checks one recording of the fleet (units, plausibility).
 pub type ReadRecording = dyn Fn(&Path) -> Result<Recording, CalibrateError> + Sync;
@@ -64,20 +75,27 @@ pub struct FleetRow {
     pub wall_s: f64,
 }
 
-/// The `*.csv` files of `dir`, sorted by name.
+/// File name extensions taken as recordings.
+pub const RECORDING_EXTENSIONS: [&str; 3] = ["csv", "tsv", "txt"];
+
+/// The recordings of `dir` (`*.csv`, `*.tsv`, `*.txt`), sorted by name.
 pub fn recordings_in(dir: &Path) -> Result<Vec<PathBuf>, CalibrateError> {
     let rd = std::fs::read_dir(dir)
         .map_err(|e| CalibrateError::Option(format!("--dir {}: {e}", dir.display())))?;
     let mut v: Vec<PathBuf> = rd
         .filter_map(Result::ok)
         .map(|e| e.path())
-        .filter(|p| p.is_file() && p.extension().is_some_and(|e| e == "csv"))
+        .filter(|p| {
+            p.is_file()
+                && p.extension()
+                    .is_some_and(|e| RECORDING_EXTENSIONS.iter().any(|x| e == *x))
+        })
         .collect();
     v.sort();
     ensure!(
         !v.is_empty(),
         Input,
-        "no *.csv recording in {}",
+        "no recording (*.csv, *.tsv, *.txt) in {}",
         dir.display()
     );
     Ok(v)
@@ -91,7 +109,7 @@ fn stem(p: &Path) -> String {
 fn one(
     path: &Path,
     out: &Path,
-    opts: &Options,
+    model: &FleetModel,
     limits: &Limits,
     command: &str,
     read: &ReadRecording,
@@ -99,6 +117,12 @@ fn one(
     let t0 = Instant::now();
     let rec = read(path)?;
     let provenance = Provenance::from_file(path, command)?;
+    let opts = match model {
+        FleetModel::Dynamic(o) => o,
+        FleetModel::Static(o) => {
+            return one_static(&rec, &out.join(stem(path)), o, limits, &provenance, t0);
+        }
+    };
     let c = calibrate(&rec, None, opts, &provenance, &ProgressBar::hidden())?;
     let inputs = Inputs {
         command: command.to_string(),
@@ -158,12 +182,52 @@ fn one(
     })
 }
 
+/// One gyro's static characterisation into `dir`: CV figures only, so any limit fails it.
+fn one_static(
+    rec: &Recording,
+    dir: &Path,
+    opts: &StaticOptions,
+    limits: &Limits,
+    provenance: &Provenance,
+    t0: Instant,
+) -> Result<FleetRow, CalibrateError> {
+    let c = calibrate_static(rec, None, opts, provenance, &ProgressBar::hidden())?;
+    let inputs = Inputs {
+        command: provenance.command.clone(),
+        recording: FileInfo {
+            file: provenance.data_file.clone(),
+            sha256: provenance.data_sha256.clone(),
+            samples: rec.len(),
+        },
+        test_recording: None,
+    };
+    report::write_static(&c, &inputs, dir)?;
+    let failures = if limits.any() {
+        vec!["no held-out data to judge (static: CV figures only)".to_string()]
+    } else {
+        Vec::new()
+    };
+    Ok(FleetRow {
+        name: provenance.data_file.clone(),
+        error: None,
+        held_out: "nothing (static)".into(),
+        sigma: c.table_point.sigma,
+        c: c.table_point.c,
+        stability_dph: [f64::NAN; 4],
+        improvement: f64::NAN,
+        f32_deviation_dph: c.f32_deviation_dph,
+        pass: limits.any().then_some(failures.is_empty()),
+        failures,
+        wall_s: t0.elapsed().as_secs_f64(),
+    })
+}
+
 /// Calibrates every recording of `dir` into `out/<stem>/` (see the module doc); `read` reads
 /// and checks one recording (units, plausibility).
 pub fn calibrate_fleet(
     dir: &Path,
     out: &Path,
-    opts: &Options,
+    model: &FleetModel,
     limits: &Limits,
     command: &str,
     read: &ReadRecording,
@@ -175,7 +239,7 @@ pub fn calibrate_fleet(
     let rows = files
         .par_iter()
         .map(|p| {
-            let r = one(p, out, opts, limits, command, read).unwrap_or_else(|e| FleetRow {
+            let r = one(p, out, model, limits, command, read).unwrap_or_else(|e| FleetRow {
                 name: p
                     .file_name()
                     .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),

@@ -201,7 +201,7 @@ pub fn run(a: &CalibrateArgs, command_line: &str) -> anyhow::Result<()> {
 }
 
 /// The tuning grid with `--c-min` as its smallest c.
-fn grid_of(c_min: f64) -> anyhow::Result<Grid> {
+pub(super) fn grid_of(c_min: f64) -> anyhow::Result<Grid> {
     let mut grid = Grid::default();
     anyhow::ensure!(
         c_min > 0.0 && c_min.is_finite(),

@@ -5,15 +5,16 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use rlg_calibrate::fleet::{self, Limits};
+use rlg_calibrate::fleet::{self, FleetModel, Limits};
+use rlg_calibrate::static_cal::StaticOptions;
 use rlg_calibrate::Options;
 use rlg_io::progress::progress;
 
 /// Arguments of `rlg train-fleet`.
 #[derive(Debug, Args)]
 pub struct TrainFleetArgs {
-    /// Folder of recordings (`*.csv`: time_s, rate_dph, temp_c at 1 Hz, or as the reading
-    /// flags say), one per gyro or axis.
+    /// Folder of recordings (`*.csv`, `*.tsv`, `*.txt`: time_s, rate_dph, temp_c, or as the
+    /// reading flags say), one per gyro or axis.
     #[arg(long, value_name = "DIR")]
     pub dir: PathBuf,
     /// Output folder: one calibration folder per recording (`<stem>/`: report, model,
@@ -46,6 +47,25 @@ pub struct TrainFleetArgs {
     /// Threads (default: all cores).
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
+    /// Training means of N s (default: from each record, as `calibrate`).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=3600))]
+    pub block: Option<u64>,
+    /// Time constant of the dT/dt estimator, s.
+    #[arg(long, value_name = "S", default_value_t = rlg_train::protocol::RATE_TAU_S)]
+    pub rate_tau_s: f64,
+    /// Smallest c of the tuning grid (lower it when no c meets the f32 limit).
+    #[arg(long, value_name = "C", default_value_t = 0.1)]
+    pub c_min: f64,
+    /// Pool the training means per cell of cycle, temperature and dT/dt (as `calibrate`).
+    #[arg(long, conflicts_with = "static_only")]
+    pub even_temperature: bool,
+    /// What each board table removes (as `calibrate --remove`).
+    #[arg(long, value_enum, default_value_t = super::calibrate::Remove::Variation)]
+    pub remove: super::calibrate::Remove,
+    /// Static characterisation of each gyro (as `calibrate --static`: temperature only, CV
+    /// figures; a limit then fails every gyro, since nothing is held out).
+    #[arg(long = "static")]
+    pub static_only: bool,
 }
 
 /// Runs `rlg train-fleet`.
@@ -64,12 +84,30 @@ pub fn run(a: &TrainFleetArgs, command_line: &str) -> anyhow::Result<()> {
             .num_threads(t)
             .build_global()?;
     }
-    let opts = Options {
-        budget: a.budget as usize,
-        window: a.window as usize,
-        from_s: a.from_s,
-        to_s: a.to_s,
-        ..Options::default()
+    let grid = super::calibrate::grid_of(a.c_min)?;
+    let model = if a.static_only {
+        FleetModel::Static(StaticOptions {
+            block: a
+                .block
+                .map_or(rlg_train::protocol::TRAIN_BLOCK, |b| b as usize),
+            budget: a.budget as usize,
+            grid,
+            rate_tau_s: a.rate_tau_s,
+            remove: a.remove.into(),
+        })
+    } else {
+        FleetModel::Dynamic(Options {
+            budget: a.budget as usize,
+            window: a.window as usize,
+            from_s: a.from_s,
+            to_s: a.to_s,
+            block: a.block.map(|b| b as usize),
+            rate_tau_s: a.rate_tau_s,
+            grid,
+            even_temperature: a.even_temperature,
+            remove: a.remove.into(),
+            ..Options::default()
+        })
     };
     let limits = Limits {
         max_stability_dph: a.max_b100_dph,
@@ -92,13 +130,13 @@ pub fn run(a: &TrainFleetArgs, command_line: &str) -> anyhow::Result<()> {
     let rows = fleet::calibrate_fleet(
         &a.dir,
         &a.out,
-        &opts,
+        &model,
         &limits,
         command_line,
         &read,
         &progress("calibrating the fleet"),
     )?;
-    let md = fleet::write_summaries(&a.out, &rows, opts.window, &limits, t0.elapsed())?;
+    let md = fleet::write_summaries(&a.out, &rows, a.window as usize, &limits, t0.elapsed())?;
     print!("{md}");
     let failed = rows.iter().filter(|r| r.pass == Some(false)).count();
     anyhow::ensure!(
