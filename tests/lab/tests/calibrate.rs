@@ -394,7 +394,7 @@ fn a_fleet_of_eight_gyros_gives_eight_tables_each_tuned() {
     let rows = fleet::calibrate_fleet(
         &input,
         &out,
-        &Options::default(),
+        &fleet::FleetModel::Dynamic(Options::default()),
         &limits,
         "rlg train-fleet (test)",
         &read,
