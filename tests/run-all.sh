@@ -40,13 +40,21 @@ step "the firmware as a firmware engineer builds it first (plain release)"
 cargo build -p firmware --release --target thumbv7em-none-eabihf
 
 step "tests (host crates, firmware logic on the host, firmware in QEMU, the C API from C)"
-cargo test --workspace --no-run
 # The corpus of wrong recordings is the longest test (minutes of child processes, mostly one
-# 10⁷-sample file at a time, so one core) and cargo runs test binaries one after another: it
-# runs beside the others, its output kept and shown after them. (`--workspace` keeps the
-# dependencies' features those of the build above; `-p host-trainer` would rebuild them.)
+# 10⁷-sample file at a time, so one core) and cargo runs test binaries one after another: its
+# binary runs beside the others, its output kept and shown after them. It is run directly, as
+# cargo would (from its package's folder): a second cargo selecting it alone would resolve the
+# dependencies' features anew and rebuild part of them, holding the build lock meanwhile.
+built=$(mktemp)
+cargo test --workspace --no-run --message-format json-render-diagnostics > "$built"
+corpus_exe=$(grep -o '"executable":"[^"]*/corpus-[0-9a-f]*"' "$built" | cut -d'"' -f4 | head -n 1)
+rm -f "$built"
+if [ -z "$corpus_exe" ] || [ ! -x "$corpus_exe" ]; then
+    echo "the corpus test's executable was not found in cargo's output" >&2
+    exit 1
+fi
 corpus_log=$(mktemp)
-cargo test --workspace --test corpus > "$corpus_log" 2>&1 &
+(cd host-trainer && "$corpus_exe") > "$corpus_log" 2>&1 &
 corpus_pid=$!
 rest=0
 cargo test --workspace -- --skip corpus_of_wrong_recordings || rest=$?

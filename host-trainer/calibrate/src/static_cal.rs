@@ -118,6 +118,16 @@ pub struct StaticPoints {
     pub phases: Vec<usize>,
 }
 
+/// The temperature's mean rate from sample `a` to sample `b` of `rec`, °C/s (0 over no time).
+fn rate_between(rec: &Recording, a: usize, b: usize) -> f64 {
+    let span = rec.time_s[b] - rec.time_s[a];
+    if span > 0.0 {
+        (rec.temp_c[b] - rec.temp_c[a]) / span
+    } else {
+        0.0
+    }
+}
+
 /// The (T, output) points of `rec` (see the module doc).
 pub fn points_of(rec: &Recording, block: usize) -> Result<StaticPoints, CalibrateError> {
     ensure!(block >= 1, Option, "--block must be at least 1");
@@ -143,12 +153,7 @@ pub fn points_of(rec: &Recording, block: usize) -> Result<StaticPoints, Calibrat
         let rates: Vec<f64> = (0..good.len())
             .map(|i| {
                 let (a, b) = (good[i.saturating_sub(1)], good[(i + 1).min(good.len() - 1)]);
-                let span = rec.time_s[b] - rec.time_s[a];
-                if span > 0.0 {
-                    (rec.temp_c[b] - rec.temp_c[a]) / span
-                } else {
-                    0.0
-                }
+                rate_between(rec, a, b)
             })
             .collect();
         return Ok(StaticPoints {
@@ -185,15 +190,7 @@ pub fn points_of(rec: &Recording, block: usize) -> Result<StaticPoints, Calibrat
         .collect();
     let rates: Vec<f64> = blocks
         .iter()
-        .map(|c| {
-            let (a, b) = (c[0], c[c.len() - 1]);
-            let span = rec.time_s[b] - rec.time_s[a];
-            if span > 0.0 {
-                (rec.temp_c[b] - rec.temp_c[a]) / span
-            } else {
-                0.0
-            }
-        })
+        .map(|c| rate_between(rec, c[0], c[c.len() - 1]))
         .collect();
     Ok(StaticPoints {
         points,

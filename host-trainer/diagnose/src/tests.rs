@@ -218,6 +218,46 @@ fn noise_scale_and_reading_quantum_are_found() {
     );
 }
 
+/// White noise whose level grows with time, not with temperature (a laser current drifting
+/// over the run, outside the term library), on two temperature cycles: not named
+/// `heteroscedastic`, and a note says the level follows time.
+#[test]
+fn noise_level_growing_in_time_is_not_heteroscedastic() {
+    let sim = simulate(&scenario(Vec::new(), 1.0), 5).expect("simulates");
+    let mut rec = sim.recording.clone();
+    let diffs: Vec<f64> = rec.rate_dph.windows(2).map(|w| w[1] - w[0]).collect();
+    let sigma1 = (diffs.iter().map(|d| d * d).sum::<f64>() / diffs.len() as f64 / 2.0).sqrt();
+    let end = rec.time_s[rec.len() - 1];
+    // Box–Muller on a 64-bit LCG: the added noise has no relation to the simulator's.
+    let mut state = 0x2545_f491_4f6c_dd1d_u64;
+    let mut uniform = || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    };
+    for (r, t) in rec.rate_dph.iter_mut().zip(&rec.time_s) {
+        let g = (-2.0 * uniform().ln()).sqrt() * (std::f64::consts::TAU * uniform()).cos();
+        *r += 1.5 * sigma1 * (t / end) * g;
+    }
+    let d = diagnose(&rec, &PhysicsModel::paper(), &Options::default()).expect("diagnoses");
+    assert!(
+        d.findings
+            .iter()
+            .all(|f| f.mechanism.name() != "heteroscedastic"),
+        "{:#?}",
+        d.findings
+    );
+    assert!(
+        d.evidence
+            .notes
+            .iter()
+            .any(|n| n.contains("with time, not with temperature")),
+        "{:#?}",
+        d.evidence.notes
+    );
+}
+
 /// A step in the bias at one time, not tied to temperature (outside the term library):
 /// `unexplained_structure`, not aging, and the evidence gives the step's time and height.
 #[test]

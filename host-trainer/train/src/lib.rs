@@ -5,6 +5,7 @@
 pub mod dataset;
 pub mod export;
 pub mod export_c;
+pub mod export_rs;
 pub mod features;
 pub mod lssvm;
 pub mod model;

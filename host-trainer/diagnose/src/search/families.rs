@@ -381,6 +381,11 @@ impl Judge<'_> {
                 Family::Heteroscedastic => true,
                 _ => false,
             };
+        // A noise scale must go with temperature, not only with time.
+        let in_time = f == Family::Heteroscedastic
+            && fit.gain > 0.0
+            && !self.noise_scale_with_temperature(out);
+        let separable = separable && !in_time;
         // The cycle-by-cycle gain is required only where the noise model is not trusted:
         // with two cycles each is predicted from one, which loses real hysteresis near the
         // detection threshold that the bootstrap finds clearly.
@@ -428,7 +433,7 @@ impl Judge<'_> {
             });
         }
         let separable = separable && beats_slow_noise;
-        if !separable && fit.gain > 0.0 && beats_slow_noise {
+        if !separable && !in_time && fit.gain > 0.0 && beats_slow_noise {
             out.untestable.push(f);
         }
         out.counted |= separable;
@@ -446,6 +451,28 @@ impl Judge<'_> {
             }
         }
         Ok(p_slow)
+    }
+
+    /// Whether a significant noise scale goes with temperature: on a record of two or more
+    /// temperature cycles, a noise level that follows time as well and to which temperature
+    /// adds nothing is not attributed to temperature (a note in `out` says so). On one cycle
+    /// the two cannot be told apart, and the temperature's term stands.
+    fn noise_scale_with_temperature(&self, out: &mut Judged) -> bool {
+        let prep = self.base.prep;
+        let (Some(v), Some(_)) = (self.var, cycle_folds(prep)) else {
+            return true;
+        };
+        match v.in_time_not_temperature(&prep.t_b) {
+            Some(dbic) => {
+                out.notes.push(format!(
+                    "the 1 Hz noise level changes over the record, but with time, not with \
+                     temperature (beside a quadratic in time, the temperature's adds ΔBIC \
+                     {dbic:+.1}): not attributed to heteroscedastic"
+                ));
+                false
+            }
+            None => true,
+        }
     }
 
     /// The p-value of point `i` of `f` (or of the single step preferred to it) under the

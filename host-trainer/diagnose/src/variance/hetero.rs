@@ -233,6 +233,36 @@ impl VarianceTest {
         delta_bic(z.len(), rss0, rss0 - rss1, self.perp.q.len())
     }
 
+    /// Whether the block log-scales follow time rather than temperature, on blocks at times
+    /// `time_s`: a quadratic in time explains them at least as well as the quadratic in
+    /// temperature, and the temperature's adds nothing beside it (its ΔBIC over the time
+    /// quadratic is not negative). Returns that ΔBIC where so. Asked only of records of two or
+    /// more temperature cycles: on one, temperature and time move together and cannot be told
+    /// apart.
+    pub fn in_time_not_temperature(&self, time_s: &[f64]) -> Option<f64> {
+        let n = self.z.len();
+        if time_s.len() != n || n < 8 {
+            return None;
+        }
+        let (t0, t1) = (time_s[0], time_s[n - 1]);
+        let span = (t1 - t0).max(f64::MIN_POSITIVE);
+        let s: Vec<f64> = time_s.iter().map(|t| (t - t0) / span - 0.5).collect();
+        let s2: Vec<f64> = s.iter().map(|v| v * v).collect();
+        let zc = centred(&self.z);
+        let rss0 = dot(&zc, &zc);
+        let time = Basis::new(&[centred(&s), centred(&s2)]);
+        let r_t = time.residual(&zc);
+        let rss_t = dot(&r_t, &r_t);
+        let mut both_cols = vec![centred(&s), centred(&s2)];
+        both_cols.extend(self.perp.q.iter().cloned());
+        let both = Basis::new(&both_cols);
+        let r_b = both.residual(&zc);
+        let rss_b = dot(&r_b, &r_b);
+        let dbic_time = delta_bic(n, rss0, rss0 - rss_t, 2);
+        let dbic_temp_beside = delta_bic(n, rss_t, rss_t - rss_b, 2);
+        (dbic_time <= self.dbic && dbic_temp_beside >= 0.0).then_some(dbic_temp_beside)
+    }
+
     /// One bootstrap replicate of the statistic under constant noise: the recording's own
     /// block log-variances in a random order (a permutation test). A drawn ln(χ²_ν/ν) per
     /// block assumes Gaussian 1 Hz samples; permuted, the blocks keep whatever distribution
