@@ -247,8 +247,10 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, fig: &Figure) -> Resul
     root.fill(&WHITE).map_err(draw_err)?;
     // The title over the whole width (the chart's own caption is centred on the plot beside
     // the legend, and a long title ran off the image's left edge).
-    let root = root.titled(&fig.title, (FONT, 22)).map_err(draw_err)?;
-    let mut chart = ChartBuilder::on(&root)
+    // The ticks' labels and the legend are drawn on `root` at the chart's backend (absolute)
+    // coordinates, so only the chart is built on the area below the title.
+    let below_title = root.titled(&fig.title, (FONT, 22)).map_err(draw_err)?;
+    let mut chart = ChartBuilder::on(&below_title)
         .margin(12)
         // Room right of the plot for the legend, so that it covers no data.
         .margin_right(legend_w)

@@ -110,10 +110,18 @@ pub(super) fn figures(c: &Calibration, dir: &Path) -> Result<Vec<String>, Calibr
         allan.log_x = true;
         allan.log_y = true;
         for r in &c.rows {
+            if r.model == Model::Lssvm && board_on_lssvm {
+                continue;
+            }
             if let Some(h) = &r.held_out {
                 let tau: Vec<f64> = h.allan.iter().map(|p| p.tau_s).collect();
+                let label = if r.model == Model::Board && board_on_lssvm {
+                    "board table and LS-SVM (one line)"
+                } else {
+                    r.model.name()
+                };
                 allan.series.push(Series::new(
-                    r.model.name(),
+                    label,
                     tau.clone(),
                     h.allan.iter().map(|p| p.adev).collect(),
                     Style::LinePoints,
