@@ -21,6 +21,14 @@ fn rlg(args: &[&str]) -> (Option<i32>, String, String) {
     )
 }
 
+/// `rlg calibrate --recording file --out out` with `flags` between.
+fn calibrate(file: &Path, out: &Path, flags: &[&str]) -> (Option<i32>, String, String) {
+    let mut args = vec!["calibrate", "--recording", file.to_str().unwrap()];
+    args.extend_from_slice(flags);
+    args.extend(["--out", out.to_str().unwrap()]);
+    rlg(&args)
+}
+
 fn dir(name: &str) -> PathBuf {
     let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
         .join("real_logs")
@@ -167,14 +175,7 @@ fn one_hour_three_axis_chamber_cycle() {
     let file = d.join("imu.tsv");
     write_tsv(&file, &log, true);
     let out = d.join("cal");
-    let (code, stdout, stderr) = rlg(&[
-        "calibrate",
-        "--recording",
-        file.to_str().unwrap(),
-        "--every-axis",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (code, stdout, stderr) = calibrate(&file, &out, &["--every-axis"]);
     assert_eq!(code, Some(0), "{stdout}\n{stderr}");
     for (axis, column) in AXES {
         let report = std::fs::read_to_string(out.join(axis).join("report.md")).unwrap();
@@ -351,15 +352,7 @@ fn rad_per_s_without_a_unit_is_refused_with_the_flag() {
     let d = dir("no_units");
     let file = d.join("imu.tsv");
     write_tsv(&file, &imu(2.0, 600.0, 2), false);
-    let (code, stdout, stderr) = rlg(&[
-        "calibrate",
-        "--recording",
-        file.to_str().unwrap(),
-        "--rate-col",
-        "gyro_x",
-        "--out",
-        d.join("cal").to_str().unwrap(),
-    ]);
+    let (code, stdout, stderr) = calibrate(&file, &d.join("cal"), &["--rate-col", "gyro_x"]);
     assert_ne!(code, Some(0), "{stdout}");
     assert!(stderr.contains("--rate-unit"), "{stderr}");
 }
@@ -382,21 +375,20 @@ fn semicolon_export_with_decimal_commas() {
     let file = d.join("export.csv");
     std::fs::write(&file, s.replace('.', ",")).unwrap();
     let out = d.join("cal");
-    let (code, stdout, stderr) = rlg(&[
-        "calibrate",
-        "--recording",
-        file.to_str().unwrap(),
-        "--time-col",
-        "Zeit",
-        "--rate-col",
-        "Drehrate",
-        "--temp-col",
-        "Temperatur",
-        "--remove",
-        "whole",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (code, stdout, stderr) = calibrate(
+        &file,
+        &out,
+        &[
+            "--time-col",
+            "Zeit",
+            "--rate-col",
+            "Drehrate",
+            "--temp-col",
+            "Temperatur",
+            "--remove",
+            "whole",
+        ],
+    );
     assert_eq!(code, Some(0), "{stdout}\n{stderr}");
     let sum = summary(&out);
     let l = cv_rms(&sum, "LS-SVM");
@@ -447,13 +439,7 @@ fn bursty_50_hz_logger_gets_the_static_model() {
     let file = d.join("bursts.csv");
     std::fs::write(&file, s).unwrap();
     let out = d.join("cal");
-    let (code, stdout, stderr) = rlg(&[
-        "calibrate",
-        "--recording",
-        file.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (code, stdout, stderr) = calibrate(&file, &out, &[]);
     assert_eq!(code, Some(0), "{stdout}\n{stderr}");
     assert!(stdout.contains("sampled in bursts"), "{stdout}");
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
@@ -569,13 +555,7 @@ fn ten_hz_rlg_day() {
     let file = d.join("rlg.csv");
     std::fs::write(&file, s).unwrap();
     let out = d.join("cal");
-    let (code, stdout, stderr) = rlg(&[
-        "calibrate",
-        "--recording",
-        file.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (code, stdout, stderr) = calibrate(&file, &out, &[]);
     assert_eq!(code, Some(0), "{stdout}\n{stderr}");
     let report = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(
@@ -631,16 +611,8 @@ fn the_loop_is_modelled_where_cv_adopts_it() {
     let file = d.join("imu.tsv");
     write_tsv(&file, &imu(2.0, 3600.0, 1), true);
     let out = d.join("cal");
-    let (code, stdout, stderr) = rlg(&[
-        "calibrate",
-        "--recording",
-        file.to_str().unwrap(),
-        "--rate-col",
-        "imu.gyro.y",
-        "--diagnose",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (code, stdout, stderr) =
+        calibrate(&file, &out, &["--rate-col", "imu.gyro.y", "--diagnose"]);
     assert_eq!(code, Some(0), "{stdout}\n{stderr}");
     let s = summary(&out);
     // The loop model is a table of the board's size: it is compared with the [T, dT/dt] table
@@ -751,29 +723,15 @@ fn static_fit_through_a_loop_says_so() {
     let file = d.join("imu.tsv");
     write_tsv(&file, &imu(2.0, 3600.0, 1), true);
     let out = d.join("cal");
-    let (code, stdout, stderr) = rlg(&[
-        "calibrate",
-        "--recording",
-        file.to_str().unwrap(),
-        "--rate-col",
-        "imu.gyro.y",
-        "--static",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (code, stdout, stderr) = calibrate(&file, &out, &["--rate-col", "imu.gyro.y", "--static"]);
     assert_eq!(code, Some(0), "{stdout}\n{stderr}");
     assert!(stdout.contains("a heating/cooling loop"), "{stdout}");
     assert!(out.join("static_fit.png").exists());
-    let (code, stdout, _) = rlg(&[
-        "calibrate",
-        "--recording",
-        file.to_str().unwrap(),
-        "--rate-col",
-        "imu.gyro.x",
-        "--static",
-        "--out",
-        d.join("x").to_str().unwrap(),
-    ]);
+    let (code, stdout, _) = calibrate(
+        &file,
+        &d.join("x"),
+        &["--rate-col", "imu.gyro.x", "--static"],
+    );
     assert_eq!(code, Some(0));
     assert!(
         !stdout.contains("heating/cooling loop"),
