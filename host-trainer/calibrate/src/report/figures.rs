@@ -7,6 +7,23 @@ use rlg_io::plot::{render_png, Figure, Series, Style};
 use crate::static_cal::StaticCalibration;
 use crate::{CalibrateError, Calibration, Model};
 
+/// `v` rounded to three significant digits, printed short: 0.1, 10, 1780, 100000 (the grid's
+/// c come from a log spacing: 9.999999999999998).
+fn three_digits(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let e = 2 - v.abs().log10().floor() as i32;
+    let rounded = if e >= 0 {
+        let s = 10f64.powi(e);
+        (v * s).round() / s
+    } else {
+        let s = 10f64.powi(-e);
+        (v / s).round() * s
+    };
+    format!("{rounded}")
+}
+
 fn centred(v: &[f64]) -> Vec<f64> {
     let m = v.iter().sum::<f64>() / v.len().max(1) as f64;
     v.iter().map(|x| x - m).collect()
@@ -163,7 +180,7 @@ pub(super) fn figures(c: &Calibration, dir: &Path) -> Result<Vec<String>, Calibr
             .map(|p| (p.sigma, p.cv_rms_dph))
             .unzip();
         cv.series.push(Series::new(
-            &format!("c = {cc:.3}"),
+            &format!("c = {}", three_digits(cc)),
             xs,
             ys,
             Style::LinePoints,
@@ -171,7 +188,11 @@ pub(super) fn figures(c: &Calibration, dir: &Path) -> Result<Vec<String>, Calibr
     }
     // The choice (refined between grid points) marked on the curves it was chosen from.
     cv.series.push(Series::new(
-        &format!("chosen: σ = {:.3}, c = {:.3}", c.tuned.sigma, c.tuned.c),
+        &format!(
+            "chosen: σ = {}, c = {}",
+            three_digits(c.tuned.sigma),
+            three_digits(c.tuned.c)
+        ),
         vec![c.tuned.sigma],
         vec![c.tuned.cv_rms_dph],
         Style::Points,
@@ -220,4 +241,25 @@ pub(super) fn static_figure(c: &StaticCalibration, dir: &Path) -> Result<String,
     ));
     render_png(&fig, &dir.join("static_fit.png"))?;
     Ok("static_fit.png".into())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::three_digits;
+
+    #[test]
+    fn legend_numbers_are_short() {
+        let got: Vec<String> = [
+            0.1,
+            9.999_999_999_999_998,
+            1778.279,
+            100_000.0,
+            0.889_3,
+            -42.17,
+        ]
+        .iter()
+        .map(|v| three_digits(*v))
+        .collect();
+        assert_eq!(got, ["0.1", "10", "1780", "100000", "0.889", "-42.2"]);
+    }
 }

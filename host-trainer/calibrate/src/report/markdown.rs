@@ -222,8 +222,7 @@ fn board(c: &Calibration) -> String {
             "## Board table on the diagnosed features\n\nThe close loop adopted the inputs \
              [{}] (see the notes): fixed-size LS-SVM, {} support vectors, σ = {:.4}, c = {:.4}; \
              f32 evaluation of the correction within {:.2e} °/h of the f64 model (limit \
-             {:.1e}); held out through the board's f32 compensator: {} °/h ({w} s stability). \
-             The board computes these inputs from T itself (`compensator_core::Feature`); a C \
+             {:.1e}); {}. The board computes these inputs from T itself (`compensator_core::Feature`); a C \
              firmware must compute the inputs `rlg_features` names. Files: \
              `model_diagnosed.json`, `table_diagnosed.rs`, `table_diagnosed.h`.\n",
             l.features.join(", "),
@@ -232,7 +231,13 @@ fn board(c: &Calibration) -> String {
             l.c,
             d.f32_deviation_dph,
             d.f32_limit_dph,
-            sci(d.board_stability_dph),
+            match d.board_stability_dph {
+                Some(b) => format!(
+                    "held out through the board's f32 compensator: {} °/h ({w} s stability)",
+                    sci(Some(b))
+                ),
+                None => "nothing held out (CV figures only)".to_string(),
+            },
         );
     }
     if c.series.time_s.is_empty() {
