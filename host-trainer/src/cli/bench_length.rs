@@ -16,6 +16,10 @@ pub struct BenchLengthArgs {
     /// Simulation seed.
     #[arg(long, value_name = "N", default_value_t = 1)]
     pub seed: u64,
+    /// Also diagnose the shipped record with its second half moved this many days later
+    /// (the same samples over a longer span; 0: not run).
+    #[arg(long, value_name = "DAYS", default_value_t = 30.0)]
+    pub gap_days: f64,
 }
 
 /// The process's peak resident memory so far, MB (Linux `VmHWM`; `None` elsewhere).
@@ -60,6 +64,11 @@ pub fn run(a: &BenchLengthArgs) -> anyhow::Result<()> {
             "--days {d}: give lengths up to 46 days (the diagnosis' limit)"
         );
     }
+    anyhow::ensure!(
+        a.gap_days.is_finite() && (0.0..=3650.0).contains(&a.gap_days),
+        "--gap-days {}: give a gap of 0 to 3650 days",
+        a.gap_days
+    );
     println!(
         "| record | samples | wall s | per day, s | peak memory of the diagnosis, MB | verdict |\n|---|---:|---:|---:|---:|---|"
     );
@@ -99,11 +108,55 @@ pub fn run(a: &BenchLengthArgs) -> anyhow::Result<()> {
             serde_json::to_value(d.verdict)?.as_str().unwrap_or("?")
         );
     }
+    if a.gap_days > 0.0 {
+        gap_rows(a)?;
+    }
     println!(
         "\nPeak memory is the process's resident high-water mark during the diagnosis: reset \
          before it (Linux clear_refs), so it counts the recording held and what the allocator \
          kept from the simulation, not the simulation's own peak; \"with the simulation\" where \
          the mark could not be reset."
     );
+    Ok(())
+}
+
+/// One diagnosis timed and its peak memory: wall s, MB (`None` where the mark could not be
+/// reset), the verdict's name.
+fn timed(rec: rlg_io::recording::Recording) -> anyhow::Result<(f64, Option<f64>, String)> {
+    let reset = reset_peak();
+    let t0 = Instant::now();
+    let d = diagnose(rec, &PhysicsModel::paper(), &Options::default())?;
+    let wall = t0.elapsed().as_secs_f64();
+    let verdict = serde_json::to_value(d.verdict)?
+        .as_str()
+        .unwrap_or("?")
+        .to_string();
+    Ok((wall, peak_mb().filter(|_| reset), verdict))
+}
+
+/// The shipped record, then the same samples with its second half `--gap-days` later: the
+/// cost should follow the samples, not the span.
+fn gap_rows(a: &BenchLengthArgs) -> anyhow::Result<()> {
+    println!(
+        "\n| record | samples | span, days | wall s | × the record without the gap | peak memory, MB | verdict |\n|---|---:|---:|---:|---:|---:|---|"
+    );
+    let mut reference = None;
+    for (name, gap_d) in [("shipped", 0.0), ("shipped, gap in the middle", a.gap_days)] {
+        // Simulated afresh for each row, so neither holds the other's samples.
+        let mut r = rlg_simulate::simulate(&rlg_simulate::shipped::dynamic()?, a.seed)?.recording;
+        let half = r.len() / 2;
+        r.time_s[half..]
+            .iter_mut()
+            .for_each(|t| *t += gap_d * 86_400.0);
+        let span_d = (r.time_s.last().unwrap_or(&0.0) - r.time_s[0]) / 86_400.0;
+        let samples = r.len();
+        let (wall, mb, verdict) = timed(r)?;
+        let ratio = reference.map_or_else(|| "1".to_string(), |w: f64| format!("{:.2}", wall / w));
+        reference.get_or_insert(wall);
+        println!(
+            "| {name} | {samples} | {span_d:.1} | {wall:.1} | {ratio} | {} | {verdict} |",
+            mb.map_or_else(|| "—".to_string(), |m| format!("{m:.0}"))
+        );
+    }
     Ok(())
 }

@@ -232,31 +232,55 @@ fn strided_blocks(term: &Term, prep: &Prepared, stride: usize) -> Vec<f64> {
 
 /// Block means of sin(ωt) and cos(ωt), ω = 2π/`period_s`, over the fitted samples, in closed
 /// form: for m samples t₀ + k·dt, Σ sin(a + kθ) = sin(a + (m−1)θ/2)·sin(mθ/2)/sin(θ/2) with
-/// a = ωt₀, θ = ω·dt (and cos likewise). `None` when a block's samples are not evenly spaced
-/// (then the per-sample columns are averaged) or θ is a multiple of 2π.
+/// a = ωt₀, θ = ω·dt (and cos likewise). A block whose samples are not evenly spaced (a gap
+/// or jitter inside it) is summed run by run, each run of evenly spaced samples in closed
+/// form, so a gap costs its block's samples once, not a sine per sample and period. `None`
+/// when θ is a multiple of 2π.
 pub(super) fn periodic_block_columns(period_s: f64, prep: &Prepared) -> Option<Vec<Vec<f64>>> {
     let t = &prep.drive.t_s;
     let m = prep.block;
+    let dt = prep.dt_s;
     let w = std::f64::consts::TAU / period_s;
-    let theta = w * prep.dt_s;
+    let theta = w * dt;
     let half = (0.5 * theta).sin();
     if half.abs() < 1e-9 {
         return None;
     }
+    // The sum of a run of k samples from t₀ at its centre's phase, reduced before the sine so
+    // a long record keeps full precision.
+    let run = |t0: f64, k: usize| {
+        let centre = (w * (t0 + 0.5 * (k - 1) as f64 * dt)).rem_euclid(std::f64::consts::TAU);
+        let (sn, cs) = centre.sin_cos();
+        let g = (0.5 * k as f64 * theta).sin() / half;
+        (sn * g, cs * g)
+    };
     let gain = (0.5 * m as f64 * theta).sin() / (half * m as f64);
     let nb = prep.nb();
     let (mut s, mut c) = (Vec::with_capacity(nb), Vec::with_capacity(nb));
     for b in 0..nb {
-        let (t0, t1) = (t[b * m], t[b * m + m - 1]);
-        if ((t1 - t0) - (m - 1) as f64 * prep.dt_s).abs() > 1e-6 * prep.dt_s * m as f64 {
-            return None;
+        let block = &t[b * m..b * m + m];
+        let (t0, t1) = (block[0], block[m - 1]);
+        if ((t1 - t0) - (m - 1) as f64 * dt).abs() <= 1e-6 * dt * m as f64 {
+            let centre = (w * (0.5 * (t0 + t1))).rem_euclid(std::f64::consts::TAU);
+            let (sn, cs) = centre.sin_cos();
+            s.push(sn * gain);
+            c.push(cs * gain);
+            continue;
         }
-        // The phase of the block's centre, reduced before the sine so a long record keeps
-        // full precision.
-        let centre = (w * (0.5 * (t0 + t1))).rem_euclid(std::f64::consts::TAU);
-        let (sn, cs) = centre.sin_cos();
-        s.push(sn * gain);
-        c.push(cs * gain);
+        let (mut ss, mut cc) = (0.0, 0.0);
+        let mut i = 0;
+        while i < m {
+            let mut k = 1;
+            while i + k < m && (block[i + k] - block[i] - k as f64 * dt).abs() <= 1e-6 * dt {
+                k += 1;
+            }
+            let (a, b) = run(block[i], k);
+            ss += a;
+            cc += b;
+            i += k;
+        }
+        s.push(ss / m as f64);
+        c.push(cc / m as f64);
     }
     Some(vec![s, c])
 }

@@ -176,10 +176,20 @@ impl Family {
             Family::Periodic => {
                 // Uniform in frequency, a third of the record's resolution 1/duration, from
                 // two periods per record to four blocks (block means pass periods above two
-                // blocks): at most 0.75 points per block.
+                // blocks): at most 0.75 points per block. Across a long gap the duration
+                // outgrows the blocks, and so would the grid (a day of samples with a month's
+                // gap: 6 600 points for 400 blocks); the points are then spread evenly over
+                // the same band, 0.75 per block, so the cost follows the samples. A period
+                // coherent across the gap falls between the finer fringes such a grid would
+                // resolve, and is found at reduced power (METHOD.md).
                 let block_s = prep.block as f64 * prep.dt_s;
-                let (f0, f1, df) = (2.0 / dur, 1.0 / (4.0 * block_s), 1.0 / (3.0 * dur));
-                let n = ((f1 - f0) / df).floor().max(0.0) as usize + 1;
+                let (f0, f1, mut df) = (2.0 / dur, 1.0 / (4.0 * block_s), 1.0 / (3.0 * dur));
+                let mut n = ((f1 - f0) / df).floor().max(0.0) as usize + 1;
+                let most = (3 * prep.nb()).div_ceil(4).max(1);
+                if n > most {
+                    n = most;
+                    df = (f1 - f0) / (most - 1).max(1) as f64;
+                }
                 (0..n).map(|k| vec![1.0 / (f0 + k as f64 * df)]).collect()
             }
             Family::Aging => vec![vec![]],

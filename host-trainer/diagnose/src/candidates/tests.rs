@@ -41,6 +41,51 @@ fn periodic_block_columns_are_the_block_means_of_the_samples() {
     }
 }
 
+/// A gap of a month inside a block and unevenly spaced time stamps: the block means summed run by
+/// run are those of the per-sample columns, and the grid keeps to 0.75 points per block.
+#[test]
+fn periodic_block_columns_across_a_gap_and_jitter() {
+    let mut rec = recording(24_000);
+    for (k, t) in rec.time_s.iter_mut().enumerate() {
+        if k >= 10_050 {
+            *t += 30.0 * 86_400.0;
+        }
+        // A clock running 0.1 % fast for 400 samples.
+        *t += 1e-3 * (k.clamp(3_000, 3_400) - 3_000) as f64;
+    }
+    let prep = prepare(rec).unwrap();
+    let model = PhysicsModel::paper();
+    for period in [400.0, 777.7, 5_000.0, 1.3e6] {
+        let fast = periodic_block_columns(period, &prep).unwrap();
+        let slow: Vec<Vec<f64>> = Family::Periodic
+            .columns(&[period], &prep, &model, &prep.drive, &[])
+            .unwrap()
+            .iter()
+            .map(|v| prep.blocks(v))
+            .collect();
+        for (f, s) in fast.iter().zip(&slow) {
+            let worst = f
+                .iter()
+                .zip(s)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            assert!(worst < 1e-9, "period {period}: {worst:e}");
+        }
+    }
+    let grid = Family::Periodic.grid(&prep);
+    assert!(
+        grid.len() <= (3 * prep.nb()).div_ceil(4),
+        "{} points",
+        grid.len()
+    );
+    let f = |p: &Vec<f64>| 1.0 / p[0];
+    assert!(
+        f(&grid[0]) < 3.0 / (31.0 * 86_400.0),
+        "lowest {}",
+        f(&grid[0])
+    );
+}
+
 /// A family's block columns from the scan's fast path and from its per-sample columns.
 fn fast_and_slow(
     f: Family,
