@@ -73,8 +73,7 @@ pub(super) fn bootstrap(
                 let b = &mut best[p.family.index()];
                 *b = b.min(d);
             }
-            let r = s.gen_perp.residual(&e);
-            let g = delta_bic(s.n, rss0, rss0 - dot(&r, &r), s.gen_k);
+            let (_, g) = s.gen.best(&e, s.n, rss0);
             (best, g)
         })
         .collect();

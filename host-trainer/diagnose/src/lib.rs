@@ -214,6 +214,10 @@ pub struct BlockSeries {
     /// Residual with every finding added (non-linear parameters as found, amplitudes
     /// refitted with the model's), °/h; equal to the baseline's when nothing was found.
     pub final_resid_dph: Vec<f64>,
+    /// Where the verdict is `unexplained_structure` by the generic test: the fitted shape of
+    /// its best alternative (a step, a shift even in dT/dt, piecewise structure), less what the
+    /// model's own columns take of it, °/h; empty otherwise.
+    pub unexplained_dph: Vec<f64>,
 }
 
 /// The numbers behind the verdict.
@@ -399,15 +403,29 @@ pub fn diagnose<'a>(
         current.terms.push(term);
         let next = search::run(&prep, &current, opts, &cache, false)?;
         let structure_p = next.evidence.structure_p_value;
+        let unexplained = next.series.unexplained_dph;
         match (next.verdict, next.findings.into_iter().next()) {
             (Verdict::MissingPhysics, Some(f)) => d.findings.push(f),
-            (Verdict::UnexplainedStructure, _) if structure_p <= opts.alpha => {
+            // Each pass is another look at the same record for structure left over: the
+            // verdict turns at α over the number of looks (Bonferroni), so the chance that a
+            // finding is overturned by noise does not grow with the passes.
+            (Verdict::UnexplainedStructure, _)
+                if structure_p <= opts.alpha / (d.findings.len() + 1) as f64 =>
+            {
                 let names: Vec<&str> = d.findings.iter().map(|f| f.mechanism.name()).collect();
                 d.evidence.notes.push(format!(
                     "with {} added the residual still has structure no library term explains \
                      (generic test p = {structure_p:.3}): the finding explains part of it",
                     names.join(" and ")
                 ));
+                d.evidence.notes.extend(
+                    next.evidence
+                        .notes
+                        .iter()
+                        .filter(|n| n.starts_with(search::UNEXPLAINED_LOOKS))
+                        .cloned(),
+                );
+                d.series.unexplained_dph = unexplained;
                 d.verdict = Verdict::UnexplainedStructure;
                 break;
             }
@@ -424,6 +442,7 @@ pub fn diagnose<'a>(
         dtemp_c_per_s: prep.dtemp_b.clone(),
         baseline_resid_dph: block_residual(&prep, model)?,
         final_resid_dph: block_residual(&prep, &full)?,
+        unexplained_dph: std::mem::take(&mut d.series.unexplained_dph),
     };
     Ok(d)
 }

@@ -80,7 +80,22 @@ fn residual_time(d: &Diagnosis, hours: &[f64]) -> Figure {
         time.series.push(Series::new(
             "fitted effect of the findings",
             hours.to_vec(),
-            explained,
+            explained.clone(),
+            Style::Line,
+        ));
+    }
+    if !s.unexplained_dph.is_empty() {
+        // Drawn over the residual: on the findings' fitted effect where there are any.
+        let over: Vec<f64> = s
+            .unexplained_dph
+            .iter()
+            .zip(&explained)
+            .map(|(u, e)| u + e)
+            .collect();
+        time.series.push(Series::new(
+            "what no library term explains (the generic test's best shape)",
+            hours.to_vec(),
+            over,
             Style::Line,
         ));
     }

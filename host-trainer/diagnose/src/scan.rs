@@ -8,6 +8,7 @@ use super::linalg::{added_fit, dot, AddedFit, Basis};
 use super::noise::Whitener;
 use super::prepare::Prepared;
 use super::score::delta_bic;
+use super::search::step_times;
 
 /// A point of a family's grid.
 pub(super) struct Point {
@@ -41,8 +42,13 @@ pub(super) struct Scan {
     pub(super) fits: Vec<AddedFit>,
     pub(super) dbic: Vec<f64>,
     pub(super) basis: Basis,
-    pub(super) gen_perp: Basis,
-    pub(super) gen_k: usize,
+    /// The generic structure test's alternatives, whitened and prepared.
+    pub(super) gen: GenericFits,
+    /// The alternative that fits the record best.
+    pub(super) gen_best: Option<usize>,
+    /// Its coefficients (°/h per unit of each of its columns).
+    pub(super) gen_coef: Vec<f64>,
+    /// Its ΔBIC: the generic structure test's statistic.
     pub(super) gen_dbic: f64,
 }
 
@@ -68,7 +74,7 @@ pub(super) fn scan(
     base_b: &[Vec<f64>],
     y_b: &[f64],
     points: &[Point],
-    generic: &[Vec<f64>],
+    generic: &Generic,
 ) -> Scan {
     let base_w = ar.whiten_many(&refs(base_b));
     let basis = Basis::new(&base_w);
@@ -103,15 +109,9 @@ pub(super) fn scan(
         drss.push(d);
         coef.push(a);
     }
-    let gen_w: Vec<Vec<f64>> = ar
-        .whiten_many(&refs(generic))
-        .iter()
-        .map(|c| basis.residual(c))
-        .collect();
-    let gen_perp = Basis::new(&gen_w);
-    let gen_k = gen_perp.q.len();
-    let r = gen_perp.residual(&yw);
-    let gen_dbic = delta_bic(n, rss0, rss0 - dot(&r, &r), gen_k);
+    let gen = generic.whitened(ar, &basis);
+    let (gen_best, gen_dbic) = gen.best(&yw, n, rss0);
+    let gen_coef = gen_best.map_or_else(Vec::new, |i| gen.coefficients(i, &yw));
     let fits = cperp.par_iter().map(|cp| AddedFit::new(cp)).collect();
     Scan {
         n,
@@ -122,8 +122,9 @@ pub(super) fn scan(
         fits,
         dbic,
         basis,
-        gen_perp,
-        gen_k,
+        gen,
+        gen_best,
+        gen_coef,
         gen_dbic,
     }
 }
@@ -132,7 +133,7 @@ pub(super) fn scan(
 /// (4 bands): a generic basis for "is there any structure at all", with no physics in it.
 /// The dT/dt bands see what differs between heating, cooling and holds (a term even in
 /// dT/dt, which the model's odd rate terms cannot take).
-pub(super) fn generic_columns(prep: &Prepared) -> Vec<Vec<f64>> {
+fn piecewise_columns(prep: &Prepared) -> Vec<Vec<f64>> {
     let nb = prep.nb();
     let mut cols = Vec::new();
     for c in 1..12 {
@@ -171,4 +172,179 @@ pub(super) fn generic_columns(prep: &Prepared) -> Vec<Vec<f64>> {
         );
     }
     cols
+}
+
+/// At most this many step times in the generic test (a step between two tried times is
+/// found at either, with at most a quarter of its ΔBIC lost on the record's own length).
+const GENERIC_STEP_TIMES: usize = 150;
+
+/// The shape of one alternative of the generic structure test.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Shape {
+    /// Piecewise constant in time, temperature and dT/dt together ([`piecewise_columns`]).
+    Piecewise,
+    /// A single step in the bias at the start of this block, at a time no term of the
+    /// library puts one (the mode hop steps at a temperature, the warm-up decays).
+    Step(usize),
+    /// The same shift on heating and cooling: |dT/dt| and (dT/dt)², per sample and averaged
+    /// over the block (the baseline's rate terms are odd).
+    EvenInRate,
+}
+
+impl Shape {
+    /// The parameters the alternative is charged (a step's time is one).
+    fn n_params(self, cols: usize) -> usize {
+        match self {
+            Shape::Step(_) => 2,
+            _ => cols,
+        }
+    }
+}
+
+/// The generic structure test's alternatives: shapes with no physics in them, each fitted
+/// beside the model, the test's statistic the best of their ΔBIC. The piecewise basis alone
+/// spreads a single step or a term even in dT/dt over 22 parameters and loses it; each such
+/// shape a record shows often and no library term has gets its own alternative, and the
+/// bootstrap calibrates the best of them as it does the library's scan.
+pub(super) struct Generic {
+    shapes: Vec<Shape>,
+    cols: Vec<Vec<Vec<f64>>>,
+}
+
+impl Generic {
+    /// The alternatives of `prep`'s record.
+    pub(super) fn new(prep: &Prepared) -> Self {
+        let nb = prep.nb();
+        let mut shapes = vec![Shape::Piecewise];
+        let mut cols = vec![piecewise_columns(prep)];
+        for k in step_times(nb, GENERIC_STEP_TIMES) {
+            shapes.push(Shape::Step(k));
+            cols.push(vec![(0..nb).map(|b| f64::from(u8::from(b >= k))).collect()]);
+        }
+        let r = &prep.drive.dtemp_c_per_s;
+        let scale = r.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        if scale > 0.0 && scale.is_finite() {
+            shapes.push(Shape::EvenInRate);
+            cols.push(vec![
+                prep.blocks(&r.iter().map(|v| (v / scale).abs()).collect::<Vec<f64>>()),
+                prep.blocks(&r.iter().map(|v| (v / scale).powi(2)).collect::<Vec<f64>>()),
+            ]);
+        }
+        Self { shapes, cols }
+    }
+
+    /// The alternatives whitened by `ar` and made orthogonal to the model's `basis`.
+    fn whitened(&self, ar: &Whitener, basis: &Basis) -> GenericFits {
+        let all: Vec<&[f64]> = self.cols.iter().flatten().map(Vec::as_slice).collect();
+        let mut w = ar.whiten_many(&all).into_iter();
+        let cperp: Vec<Vec<Vec<f64>>> = self
+            .cols
+            .iter()
+            .map(|c| w.by_ref().take(c.len()).collect::<Vec<Vec<f64>>>())
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .map(|mut c| {
+                c.iter_mut().for_each(|v| basis.residual_in_place(v));
+                c
+            })
+            .collect();
+        let fits: Vec<AddedFit> = cperp.par_iter().map(|c| AddedFit::new(c)).collect();
+        let k = self
+            .shapes
+            .iter()
+            .zip(&fits)
+            .zip(&cperp)
+            .map(|((s, f), c)| match f {
+                AddedFit::Many(b) => s.n_params(b.q.len()),
+                _ => s.n_params(c.len()),
+            })
+            .collect();
+        GenericFits {
+            shapes: self.shapes.clone(),
+            cperp,
+            fits,
+            k,
+        }
+    }
+}
+
+/// The generic alternatives in a scan's whitened metric.
+pub(super) struct GenericFits {
+    /// Each alternative's shape.
+    pub(super) shapes: Vec<Shape>,
+    cperp: Vec<Vec<Vec<f64>>>,
+    fits: Vec<AddedFit>,
+    k: Vec<usize>,
+}
+
+impl GenericFits {
+    /// The best alternative for the whitened residual `e` (orthogonal to the model) whose
+    /// sum of squares is `rss0`, and its ΔBIC (+∞ with none).
+    pub(super) fn best(&self, e: &[f64], n: usize, rss0: f64) -> (Option<usize>, f64) {
+        let mut best = (None, f64::INFINITY);
+        for (i, ((c, f), k)) in self.cperp.iter().zip(&self.fits).zip(&self.k).enumerate() {
+            let d = delta_bic(n, rss0, f.drss(c, e), *k);
+            if d < best.1 {
+                best = (Some(i), d);
+            }
+        }
+        best
+    }
+
+    /// The coefficients of alternative `i` fitted to `e` (°/h per unit of each column).
+    pub(super) fn coefficients(&self, i: usize, e: &[f64]) -> Vec<f64> {
+        crate::linalg::added_fit(&self.cperp[i], e).1
+    }
+}
+
+impl Scan {
+    /// The fitted shape of the best generic alternative in °/h per block (its columns as
+    /// recorded, weighted by the whitened fit's coefficients), less what the model's block
+    /// columns `base_b` take of it (the part the residual can show).
+    pub(super) fn generic_fit(&self, generic: &Generic, base_b: &[Vec<f64>]) -> Vec<f64> {
+        let Some(i) = self.gen_best else {
+            return Vec::new();
+        };
+        let cols = &generic.cols[i];
+        let nb = cols.first().map_or(0, Vec::len);
+        let fit: Vec<f64> = (0..nb)
+            .map(|b| cols.iter().zip(&self.gen_coef).map(|(c, a)| a * c[b]).sum())
+            .collect();
+        Basis::new(base_b).residual(&fit)
+    }
+
+    /// What the generic alternative that fits best looks like, in words: where a step is and
+    /// how high, how a shift even in dT/dt goes, or that the structure is spread over time,
+    /// temperature and dT/dt at once.
+    pub(super) fn describe_generic(&self, prep: &Prepared) -> Option<String> {
+        let shape = self.gen.shapes[self.gen_best?];
+        let c = &self.gen_coef;
+        Some(match shape {
+            Shape::Step(k) => format!(
+                "a step of {:+.3e} °/h in the bias {:.2} h into the record, at {:.1} °C, which \
+                 no term of the library puts there (a mode hop steps at a temperature, on \
+                 every pass through it)",
+                c.first().copied().unwrap_or(0.0),
+                (prep.t_b[k] - prep.full_drive.t_s[0]) / 3600.0,
+                prep.temp_b[k]
+            ),
+            Shape::EvenInRate => {
+                let scale = prep
+                    .drive
+                    .dtemp_c_per_s
+                    .iter()
+                    .fold(0.0_f64, |m, v| m.max(v.abs()));
+                format!(
+                    "a shift of the bias that is the same on heating and cooling, {:+.3e} °/h \
+                     at the record's fastest |dT/dt| ({:.2} °C/min) on a fit in |dT/dt| and \
+                     (dT/dt)²: the library's rate terms change sign with dT/dt",
+                    c.iter().sum::<f64>(),
+                    scale * 60.0
+                )
+            }
+            Shape::Piecewise => "structure spread over time, temperature and dT/dt (12 time \
+                 chunks, 8 temperature bands, 4 dT/dt bands fitted together beside the model)"
+                .to_string(),
+        })
+    }
 }

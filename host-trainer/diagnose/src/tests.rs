@@ -292,6 +292,71 @@ fn step_in_time_is_not_aging() {
     );
 }
 
+/// The note on structure no term explains, where there is one.
+fn unexplained_note(d: &Diagnosis) -> Option<&String> {
+    d.evidence
+        .notes
+        .iter()
+        .find(|n| n.starts_with(search::UNEXPLAINED_LOOKS))
+}
+
+/// A step in the bias at a third of the record, not tied to temperature: the generic test's
+/// step alternative finds it, the verdict is `unexplained_structure`, the note says when and
+/// how high, and the plot's series holds the step's shape.
+#[test]
+fn step_in_time_is_unexplained_and_located() {
+    let mut sim = simulate(&scenario(vec![], 1.0), 43).expect("simulates");
+    let rec = &mut sim.recording;
+    let t_step = rec.time_s[0] + 0.3 * (rec.time_s[rec.time_s.len() - 1] - rec.time_s[0]);
+    for (r, t) in rec.rate_dph.iter_mut().zip(&rec.time_s) {
+        if *t >= t_step {
+            *r += 0.003;
+        }
+    }
+    let d = diagnose(&*rec, &PhysicsModel::paper(), &Options::default()).expect("diagnoses");
+    assert_eq!(
+        d.verdict,
+        Verdict::UnexplainedStructure,
+        "{:#?}",
+        d.evidence
+    );
+    let note = unexplained_note(&d).expect("the note says what it looks like");
+    let hours: f64 = note
+        .split(" °/h in the bias ")
+        .nth(1)
+        .and_then(|r| r.split(" h into").next())
+        .and_then(|h| h.parse().ok())
+        .unwrap_or_else(|| panic!("a step's time in {note}"));
+    let truth_h = (t_step - rec.time_s[0]) / 3600.0;
+    assert!(
+        (hours - truth_h).abs() < 0.5,
+        "{note}; truth {truth_h:.2} h"
+    );
+    let u = &d.series.unexplained_dph;
+    assert_eq!(u.len(), d.series.t_s.len());
+    let (before, after): (Vec<f64>, Vec<f64>) = (
+        d.series
+            .t_s
+            .iter()
+            .zip(u)
+            .filter(|(t, _)| **t < t_step - 600.0)
+            .map(|(_, v)| *v)
+            .collect(),
+        d.series
+            .t_s
+            .iter()
+            .zip(u)
+            .filter(|(t, _)| **t > t_step + 600.0)
+            .map(|(_, v)| *v)
+            .collect(),
+    );
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let rise = mean(&after) - mean(&before);
+    // The plotted shape is what the residual shows: the step less the part the model's own
+    // columns take of it.
+    assert!(rise > 0.3 * 0.003 && rise < 0.003, "fitted rise {rise:e}");
+}
+
 /// At ten times the paper's signal-to-noise the fitted non-linear parameters are accurate:
 /// each case pins a fix of an estimator bias that noise alone would hide.
 fn high_snr(extra: Term, seed: u64) -> Finding {

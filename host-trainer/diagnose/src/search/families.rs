@@ -12,7 +12,7 @@ use super::cache::ColumnCache;
 use super::noise_model::FittedNoise;
 use super::significance::Significance;
 use super::slow::{slow_time_only, SlowDrift, SLOW_PERIOD_OF_RECORD};
-use super::step::{step_instead, step_times, Step, StepScan};
+use super::step::{step_instead, step_times, Step, StepScan, STEP_TIMES};
 use crate::baseline::Baseline;
 use crate::candidates::{node_lag, Family};
 use crate::linalg::{added_fit, Basis};
@@ -503,7 +503,7 @@ impl Judge<'_> {
                 &record,
                 g1,
                 st.block,
-                &step_times(self.base.prep.nb()),
+                &step_times(self.base.prep.nb(), STEP_TIMES),
                 &draws,
             ),
             None => {

@@ -10,7 +10,7 @@ use crate::baseline::Baseline;
 use crate::candidates::Family;
 use crate::noise::whiten::Whitener;
 use crate::prepare::{Prepared, BLOCK_S, MAX_BLOCKS};
-use crate::scan::{scan, Point, Scan};
+use crate::scan::{scan, Generic, Point, Scan};
 use crate::variance::{output_quantum, VarianceTest, MIN_COUNT_SIGMA};
 use crate::DiagnoseError;
 
@@ -160,7 +160,7 @@ impl Grid {
         &mut self,
         whitener: &Whitener,
         base: &Baseline<'_>,
-        generic: &[Vec<f64>],
+        generic: &Generic,
     ) -> Scan {
         let mut s = scan(
             whitener,

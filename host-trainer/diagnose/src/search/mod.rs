@@ -29,12 +29,17 @@ mod step;
 use super::baseline::Baseline;
 use super::locate::phases;
 use super::prepare::{PhysicsModel, Prepared};
-use super::scan::{generic_columns, Scanned};
+use super::scan::{Generic, Scanned};
 use super::score::heldout_metrics;
 use super::{BlockSeries, DiagnoseError, Diagnosis, Evidence, Options};
 use significance::Significance;
 
 pub(crate) use cache::ColumnCache;
+
+/// How the note on structure no term explains begins (a later pass' note is carried to the
+/// diagnosis by it).
+pub(crate) const UNEXPLAINED_LOOKS: &str = "what no library term explains looks like ";
+pub(crate) use step::step_times;
 
 /// One pass of the search. `first`: the pass on the user's model; the later passes (after a
 /// finding) ask whether the findings account for the structure, and there the generic test
@@ -50,7 +55,7 @@ pub(crate) fn run(
     let base = Baseline::fit(prep, model)?;
     let mut grid = grid::Grid::build(&base, cache)?;
     let mut notes = grid.reading_notes(prep);
-    let generic = generic_columns(prep);
+    let generic = Generic::new(prep);
     let ar_fit = noise_model::first_pass_ar(&base, &grid.points, &generic);
     let noise = noise_model::FittedNoise::fit(&base, &grid.points, opts, &mut notes);
     let whitener = noise.whitener(prep, &ar_fit);
@@ -86,6 +91,15 @@ pub(crate) fn run(
     };
     let structure = report::structure_test(&question, opts);
     notes.extend(structure.note.iter().cloned());
+    let unexplained = structure.significant && judged.finding.is_none();
+    if unexplained {
+        notes.extend(scan.describe_generic(prep).map(|d| {
+            format!(
+                "{UNEXPLAINED_LOOKS}{d} (generic test p = {:.3}; the located spans say where)",
+                structure.p_value
+            )
+        }));
+    }
     let findings = match &judged.finding {
         Some(found) => vec![report::finding(found, &judge)?],
         None => Vec::new(),
@@ -114,6 +128,13 @@ pub(crate) fn run(
             rate_ramp: noise.ramp.clone(),
             candidates: judged.scores,
         },
-        series: BlockSeries::default(),
+        series: BlockSeries {
+            unexplained_dph: if unexplained {
+                scan.generic_fit(&generic, &base.cols_b)
+            } else {
+                Vec::new()
+            },
+            ..BlockSeries::default()
+        },
     })
 }

@@ -18,7 +18,7 @@ use crate::noise::covariance::block_mean_cov;
 use crate::noise::whiten::{ArModel, GlsWhitener, Whitener, GLS_MAX_BLOCKS};
 use crate::prepare::Prepared;
 use crate::ramp::{ramp_instead_of_rrw, Draws};
-use crate::scan::{scan, Point};
+use crate::scan::{scan, Generic, Point};
 use crate::{Options, RampEvidence};
 use rlg_simulate::noise::NoiseParams;
 
@@ -27,11 +27,7 @@ use rlg_simulate::noise::NoiseParams;
 /// colour. It is the whitening of records too long for the GLS factor, and the AR model the
 /// evidence reports. (Fitted into an AR noise model, a real effect raises the thresholds
 /// enough to lose most moderate effects.)
-pub(super) fn first_pass_ar(
-    base: &Baseline<'_>,
-    points: &[Point],
-    generic: &[Vec<f64>],
-) -> ArModel {
+pub(super) fn first_pass_ar(base: &Baseline<'_>, points: &[Point], generic: &Generic) -> ArModel {
     let y_b = &base.prep.y_b;
     let ar1 = Whitener::Ar(ArModel::fit(&base.resid_b));
     let s1 = scan(&ar1, &base.cols_b, y_b, points, generic);

@@ -14,7 +14,7 @@ use crate::explain::explain;
 use crate::linalg::{combine, Basis};
 use crate::locate::{moving_average, peak_mask, spans};
 use crate::noise::replicates::{replicate_rng, simulate_block_means};
-use crate::scan::Scan;
+use crate::scan::{Generic, Scan};
 use crate::score::{nonlinear_of, ModelColumns};
 use crate::{DiagnoseError, Finding, Options, Span, Verdict};
 
@@ -48,7 +48,7 @@ pub(super) struct StructureQuestion<'a> {
     /// The model's fit.
     pub(super) base: &'a Baseline<'a>,
     /// The generic columns.
-    pub(super) generic: &'a [Vec<f64>],
+    pub(super) generic: &'a Generic,
     /// The pass's scan (its generic ΔBIC).
     pub(super) scan: &'a Scan,
     /// The fitted noise.

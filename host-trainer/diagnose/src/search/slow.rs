@@ -10,7 +10,7 @@ use crate::noise::covariance::block_mean_cov;
 use crate::noise::reml::reml_noise;
 use crate::noise::whiten::{GlsWhitener, Whitener, GLS_MAX_BLOCKS};
 use crate::prepare::Prepared;
-use crate::scan::{scan, Scanned};
+use crate::scan::{scan, Generic, Scanned};
 use crate::Options;
 use rlg_simulate::noise::NoiseParams;
 
@@ -74,7 +74,7 @@ pub(super) const STRUCTURE_RRW_BELOW: f64 = 0.2;
 pub(super) fn structure_under_rrw(
     prep: &Prepared,
     base_b: &[Vec<f64>],
-    generic: &[Vec<f64>],
+    generic: &Generic,
     opts: &Options,
 ) -> Option<f64> {
     if prep.nb() > GLS_MAX_BLOCKS {

@@ -28,16 +28,16 @@ pub(super) struct Step {
 }
 
 /// At most this many step times are tried (evenly spaced blocks).
-const STEP_TIMES: usize = 600;
+pub(super) const STEP_TIMES: usize = 600;
 
-/// The blocks a step is tried at: at most [`STEP_TIMES`], evenly spaced; none within 2 % of
+/// The blocks a step is tried at: at most about `most`, evenly spaced; none within 2 % of
 /// either end, where a step is an offset of a few blocks, which the noise does by itself.
-pub(super) fn step_times(nb: usize) -> Vec<usize> {
+pub(crate) fn step_times(nb: usize, most: usize) -> Vec<usize> {
     let edge = (nb / 50).max(2);
     if nb < 2 * edge + 2 {
         return Vec::new();
     }
-    let stride = ((nb - 2 * edge) / STEP_TIMES).max(1);
+    let stride = ((nb - 2 * edge) / most.max(1)).max(1);
     (edge..nb - edge).step_by(stride).collect()
 }
 
@@ -50,7 +50,7 @@ pub(super) struct StepScan {
 
 impl StepScan {
     fn new(ar: &Whitener, s: &Scan, nb: usize) -> Option<Self> {
-        let blocks = step_times(nb);
+        let blocks = step_times(nb, STEP_TIMES);
         if blocks.is_empty() {
             return None;
         }
