@@ -177,7 +177,7 @@ fn piecewise_columns(prep: &Prepared) -> Vec<Vec<f64>> {
 /// At most this many step times in the generic test: a step half-way between two tried times
 /// is δ = 1/300 of the record from one, and in white noise a step at a fraction s of the record
 /// loses about δ/(s(1 − s)) of its fit gain there, under 2 % in the middle third (the fine
-/// step scan of [`crate::search`] locates it where a step is put against a drift).
+/// step scan of the search locates it where a step is put against a drift).
 const GENERIC_STEP_TIMES: usize = 150;
 
 /// The shape of one alternative of the generic structure test.
