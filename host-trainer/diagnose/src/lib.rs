@@ -279,6 +279,65 @@ pub struct Evidence {
     /// model is then white + B fitted beside the ramp, and aging is tested against it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rate_ramp: Option<RampEvidence>,
+    /// What the structure no library term explains looks like, where the generic structure
+    /// test made the verdict `unexplained_structure` (after the findings, where there are any).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unexplained: Option<Unexplained>,
+}
+
+/// The generic structure test's best alternative, where it made the verdict.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "shape", rename_all = "snake_case")]
+pub enum Unexplained {
+    /// A single step in the bias at a time, not tied to temperature.
+    Step {
+        /// When, s since the first sample.
+        t_s: f64,
+        /// The block mean temperature there, °C.
+        temp_c: f64,
+        /// Its height in the whitened fit, °/h.
+        height_dph: f64,
+    },
+    /// A shift the same on heating and cooling (a fit in |dT/dt| and (dT/dt)²).
+    EvenInRate {
+        /// The shift at the record's fastest |dT/dt|, °/h.
+        shift_dph: f64,
+        /// That rate, °C/s.
+        at_c_per_s: f64,
+    },
+    /// Structure spread over time, temperature and dT/dt (the piecewise alternative).
+    Piecewise,
+}
+
+impl Unexplained {
+    /// In words, for the note.
+    pub fn describe(&self) -> String {
+        match self {
+            Unexplained::Step {
+                t_s,
+                temp_c,
+                height_dph,
+            } => format!(
+                "a step of {height_dph:+.3e} °/h in the bias {:.2} h into the record, at \
+                 {temp_c:.1} °C, which no term of the library puts there (a mode hop steps at \
+                 a temperature, on every pass through it)",
+                t_s / 3600.0
+            ),
+            Unexplained::EvenInRate {
+                shift_dph,
+                at_c_per_s,
+            } => format!(
+                "a shift of the bias that is the same on heating and cooling, {shift_dph:+.3e} \
+                 °/h at the record's fastest |dT/dt| ({:.2} °C/min) on a fit in |dT/dt| and \
+                 (dT/dt)²: the library's rate terms change sign with dT/dt",
+                at_c_per_s * 60.0
+            ),
+            Unexplained::Piecewise => "structure spread over time, temperature and dT/dt (12 \
+                 time chunks, 8 temperature bands, 4 dT/dt bands fitted together beside the \
+                 model)"
+                .to_string(),
+        }
+    }
 }
 
 /// Rate ramp against rate random walk, the two slow terms of IEEE Std 952 that make the
@@ -404,6 +463,7 @@ pub fn diagnose<'a>(
         let next = search::run(&prep, &current, opts, &cache, false)?;
         let structure_p = next.evidence.structure_p_value;
         let unexplained = next.series.unexplained_dph;
+        let shape = next.evidence.unexplained;
         match (next.verdict, next.findings.into_iter().next()) {
             (Verdict::MissingPhysics, Some(f)) => d.findings.push(f),
             // Each pass is another look at the same record for structure left over: the
@@ -426,6 +486,7 @@ pub fn diagnose<'a>(
                         .cloned(),
                 );
                 d.series.unexplained_dph = unexplained;
+                d.evidence.unexplained = shape;
                 d.verdict = Verdict::UnexplainedStructure;
                 break;
             }

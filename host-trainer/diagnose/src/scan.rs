@@ -9,6 +9,7 @@ use super::noise::Whitener;
 use super::prepare::Prepared;
 use super::score::delta_bic;
 use super::search::step_times;
+use super::Unexplained;
 
 /// A point of a family's grid.
 pub(super) struct Point {
@@ -315,38 +316,27 @@ impl Scan {
         Basis::new(base_b).residual(&fit)
     }
 
-    /// What the generic alternative that fits best looks like, in words: where a step is and
-    /// how high, how a shift even in dT/dt goes, or that the structure is spread over time,
+    /// What the generic alternative that fits best looks like: where a step is and how high,
+    /// how large a shift even in dT/dt is, or that the structure is spread over time,
     /// temperature and dT/dt at once.
-    pub(super) fn describe_generic(&self, prep: &Prepared) -> Option<String> {
+    pub(super) fn unexplained(&self, prep: &Prepared) -> Option<Unexplained> {
         let shape = self.gen.shapes[self.gen_best?];
         let c = &self.gen_coef;
         Some(match shape {
-            Shape::Step(k) => format!(
-                "a step of {:+.3e} °/h in the bias {:.2} h into the record, at {:.1} °C, which \
-                 no term of the library puts there (a mode hop steps at a temperature, on \
-                 every pass through it)",
-                c.first().copied().unwrap_or(0.0),
-                (prep.t_b[k] - prep.full_drive.t_s[0]) / 3600.0,
-                prep.temp_b[k]
-            ),
-            Shape::EvenInRate => {
-                let scale = prep
+            Shape::Step(k) => Unexplained::Step {
+                t_s: prep.t_b[k] - prep.full_drive.t_s[0],
+                temp_c: prep.temp_b[k],
+                height_dph: c.first().copied().unwrap_or(0.0),
+            },
+            Shape::EvenInRate => Unexplained::EvenInRate {
+                shift_dph: c.iter().sum(),
+                at_c_per_s: prep
                     .drive
                     .dtemp_c_per_s
                     .iter()
-                    .fold(0.0_f64, |m, v| m.max(v.abs()));
-                format!(
-                    "a shift of the bias that is the same on heating and cooling, {:+.3e} °/h \
-                     at the record's fastest |dT/dt| ({:.2} °C/min) on a fit in |dT/dt| and \
-                     (dT/dt)²: the library's rate terms change sign with dT/dt",
-                    c.iter().sum::<f64>(),
-                    scale * 60.0
-                )
-            }
-            Shape::Piecewise => "structure spread over time, temperature and dT/dt (12 time \
-                 chunks, 8 temperature bands, 4 dT/dt bands fitted together beside the model)"
-                .to_string(),
+                    .fold(0.0_f64, |m, v| m.max(v.abs())),
+            },
+            Shape::Piecewise => Unexplained::Piecewise,
         })
     }
 }

@@ -92,14 +92,14 @@ pub(crate) fn run(
     let structure = report::structure_test(&question, opts);
     notes.extend(structure.note.iter().cloned());
     let unexplained = structure.significant && judged.finding.is_none();
-    if unexplained {
-        notes.extend(scan.describe_generic(prep).map(|d| {
-            format!(
-                "{UNEXPLAINED_LOOKS}{d} (generic test p = {:.3}; the located spans say where)",
-                structure.p_value
-            )
-        }));
-    }
+    let shape = unexplained.then(|| scan.unexplained(prep)).flatten();
+    notes.extend(shape.as_ref().map(|s| {
+        format!(
+            "{UNEXPLAINED_LOOKS}{} (generic test p = {:.3}; the located spans say where)",
+            s.describe(),
+            structure.p_value
+        )
+    }));
     let findings = match &judged.finding {
         Some(found) => vec![report::finding(found, &judge)?],
         None => Vec::new(),
@@ -126,6 +126,7 @@ pub(crate) fn run(
             structure_p_value: structure.p_value,
             step: judged.step,
             rate_ramp: noise.ramp.clone(),
+            unexplained: shape,
             candidates: judged.scores,
         },
         series: BlockSeries {
