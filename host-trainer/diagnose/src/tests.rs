@@ -258,19 +258,27 @@ fn noise_level_growing_in_time_is_not_heteroscedastic() {
     );
 }
 
+/// The shortened dynamic scenario's recording (seed `seed`) with a bias step of `height`
+/// °/h from a `fraction` of its span on, and the step's time (s).
+fn with_step(seed: u64, fraction: f64, height: f64) -> (rlg_io::recording::Recording, f64) {
+    let mut rec = simulate(&scenario(vec![], 1.0), seed)
+        .expect("simulates")
+        .recording;
+    let t_step = rec.time_s[0] + fraction * (rec.time_s[rec.time_s.len() - 1] - rec.time_s[0]);
+    for (r, t) in rec.rate_dph.iter_mut().zip(&rec.time_s) {
+        if *t >= t_step {
+            *r += height;
+        }
+    }
+    (rec, t_step)
+}
+
 /// A step in the bias at one time, not tied to temperature (outside the term library):
 /// `unexplained_structure`, not aging, and the evidence gives the step's time and height.
 #[test]
 fn step_in_time_is_not_aging() {
-    let mut sim = simulate(&scenario(vec![], 1.0), 41).expect("simulates");
-    let rec = &mut sim.recording;
-    let t_step = rec.time_s[0] + 0.6 * (rec.time_s[rec.time_s.len() - 1] - rec.time_s[0]);
-    for (r, t) in rec.rate_dph.iter_mut().zip(&rec.time_s) {
-        if *t >= t_step {
-            *r += 0.003;
-        }
-    }
-    let d = diagnose(&*rec, &PhysicsModel::paper(), &Options::default()).expect("diagnoses");
+    let (rec, t_step) = with_step(41, 0.6, 0.003);
+    let d = diagnose(&rec, &PhysicsModel::paper(), &Options::default()).expect("diagnoses");
     assert_eq!(
         d.verdict,
         Verdict::UnexplainedStructure,
@@ -305,15 +313,8 @@ fn unexplained_note(d: &Diagnosis) -> Option<&String> {
 /// how high, and the plot's series holds the step's shape.
 #[test]
 fn step_in_time_is_unexplained_and_located() {
-    let mut sim = simulate(&scenario(vec![], 1.0), 43).expect("simulates");
-    let rec = &mut sim.recording;
-    let t_step = rec.time_s[0] + 0.3 * (rec.time_s[rec.time_s.len() - 1] - rec.time_s[0]);
-    for (r, t) in rec.rate_dph.iter_mut().zip(&rec.time_s) {
-        if *t >= t_step {
-            *r += 0.003;
-        }
-    }
-    let d = diagnose(&*rec, &PhysicsModel::paper(), &Options::default()).expect("diagnoses");
+    let (rec, t_step) = with_step(43, 0.3, 0.003);
+    let d = diagnose(&rec, &PhysicsModel::paper(), &Options::default()).expect("diagnoses");
     assert_eq!(
         d.verdict,
         Verdict::UnexplainedStructure,
