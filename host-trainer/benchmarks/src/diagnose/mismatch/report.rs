@@ -125,24 +125,31 @@ fn summary(o: &mut String, results: &[MismatchResult], clean: &[&CaseResult], ra
         "| key parameter within tolerance (of correct identifications) | {} |",
         pct(pok, correct.len())
     );
-    let out_named = outside
-        .iter()
-        .filter(|r| matches!(r.result.predicted, Label::Mechanism(_)))
-        .count();
-    let out_unexp = outside
-        .iter()
-        .filter(|r| r.result.predicted == Label::Unexplained)
-        .count();
-    let _ = writeln!(
-        o,
-        "| outside-library effects named as a library mechanism | {} |",
-        pct(out_named, outside.len())
-    );
-    let _ = writeln!(
-        o,
-        "| outside-library effects called `unexplained` | {} |",
-        pct(out_unexp, outside.len())
-    );
+    // All of them, then at D ≥ 6 (where the diagnosis' targets are set).
+    for (range, at) in [("", 0.0), (" at D ≥ 6", 6.0)] {
+        let set: Vec<_> = outside
+            .iter()
+            .filter(|r| r.result.detectability >= at)
+            .collect();
+        let named = set
+            .iter()
+            .filter(|r| matches!(r.result.predicted, Label::Mechanism(_)))
+            .count();
+        let unexp = set
+            .iter()
+            .filter(|r| r.result.predicted == Label::Unexplained)
+            .count();
+        let _ = writeln!(
+            o,
+            "| outside-library effects{range} named as a library mechanism | {} |",
+            pct(named, set.len())
+        );
+        let _ = writeln!(
+            o,
+            "| outside-library effects{range} called `unexplained` | {} |",
+            pct(unexp, set.len())
+        );
+    }
     let hidden: Vec<&CaseResult> = results
         .iter()
         .filter(|r| r.kind != Kind::Clean)

@@ -379,6 +379,7 @@ fn report_and_figure() {
         "false alarms on clean recordings",
         "top-1, library families, D 3–5",
         "outside-library effects named as a library mechanism",
+        "outside-library effects at D ≥ 6 called `unexplained`",
         "| 5 % | 50 % (1/2)",
         "| angle quantisation | 1 / 0 of 2 (0) |",
         "| hidden effects concealed",
