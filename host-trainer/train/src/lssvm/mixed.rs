@@ -26,9 +26,10 @@ use faer::prelude::*;
 use faer::{Accum, Par};
 use rayon::prelude::*;
 
+use super::cg::{pcg, Cg, Need};
 use super::kernel::gauss_rows;
 use super::packed::PackedLower;
-use super::pivoted::LowRank;
+use super::pivoted::{LowRank, PivotPath};
 
 /// Most CG steps before giving up (LAPACK's `dsposv` allows 30 refinement steps).
 pub const MAX_STEPS: usize = 30;
@@ -207,93 +208,134 @@ pub fn solve_low_rank(
     Ok((x, stats, p.rank()))
 }
 
-/// Preconditioned conjugate gradients on the f64 H (lower triangle `h`), one recurrence per
-/// column of `b`, stopped on LAPACK `dsposv`'s backward-error test and checked on the true
-/// residual at the end.
-fn pcg(
-    apply_h: impl Fn(&Mat<f64>) -> Mat<f64>,
-    b: MatRef<'_, f64>,
-    precondition: impl Fn(&Mat<f64>) -> Mat<f64>,
-    max_steps: usize,
-) -> Result<(Mat<f64>, MixedStats), GiveUp> {
-    let n = b.nrows();
-    let m = b.ncols();
-    let col_dot = |a: &Mat<f64>, b: &Mat<f64>, j: usize| -> f64 {
-        (0..n).map(|i| a[(i, j)] * b[(i, j)]).sum()
-    };
-    let col_max =
-        |a: &Mat<f64>, j: usize| -> f64 { (0..n).map(|i| a[(i, j)].abs()).fold(0.0, f64::max) };
+/// A low-rank-preconditioned solve: the solution, its statistics and the preconditioner's
+/// rank, or why it gave up.
+pub type LowRankSolve = Result<(Mat<f64>, MixedStats, usize), GiveUp>;
 
-    let mut x = precondition(&b.to_owned());
-    // One pass over H gives H·x₀ and H·1: H's entries are positive (Gaussian kernel plus a
-    // positive diagonal), so ‖H‖∞, the largest row sum of |H|, is max(H·1).
-    let x1 = Mat::<f64>::from_fn(n, m + 1, |i, j| if j < m { x[(i, j)] } else { 1.0 });
-    let hx1 = apply_h(&x1);
-    let h_norm = (0..n).map(|i| hx1[(i, m)]).fold(0.0, f64::max);
-    let tol = (n as f64).sqrt() * f64::EPSILON * h_norm;
-    let mut r = Mat::<f64>::from_fn(n, m, |i, j| b[(i, j)] - hx1[(i, j)]);
-    let mut zr = precondition(&r);
-    let mut p = zr.clone();
-    let mut rz: Vec<f64> = (0..m).map(|j| col_dot(&r, &zr, j)).collect();
-    let converged = |r: &Mat<f64>, x: &Mat<f64>, j: usize| col_max(r, j) <= tol * col_max(x, j);
-    let mut steps = 0;
-    loop {
-        let done: Vec<bool> = (0..m).map(|j| converged(&r, &x, j)).collect();
-        if done.iter().all(|d| *d) {
-            break;
-        }
-        if steps == max_steps {
-            return Err(GiveUp::NoConvergence);
-        }
-        steps += 1;
-        let q = apply_h(&p);
-        for j in 0..m {
-            if done[j] {
-                continue;
-            }
-            let pq = col_dot(&p, &q, j);
-            if !(pq > 0.0 && rz[j].is_finite()) {
-                return Err(GiveUp::NoConvergence);
-            }
-            let a = rz[j] / pq;
-            for i in 0..n {
-                x[(i, j)] += a * p[(i, j)];
-                r[(i, j)] -= a * q[(i, j)];
-            }
-        }
-        zr = precondition(&r);
-        for j in 0..m {
-            if done[j] {
-                continue;
-            }
-            let rz_new = col_dot(&r, &zr, j);
-            let beta = rz_new / rz[j];
-            rz[j] = rz_new;
-            for i in 0..n {
-                p[(i, j)] = zr[(i, j)] + beta * p[(i, j)];
-            }
+/// [`solve_low_rank`] for the systems H_c = K + I/c of each c of `cs` at once, on the kernel
+/// part of the packed `h` (its stored diagonal is not read): their CG recurrences advance in
+/// lock step, and each round's products with every H_c are made in one pass over `h`
+/// ([`PackedLower::mul_diagonal`]). One system's numbers are those of [`solve_low_rank`] on
+/// `h` with its diagonal set to 1 + 1/c, bit for bit; the tuning's folds solve every c of
+/// the grid this way, reading their kernel once per step instead of once per c.
+pub fn solve_low_rank_shifts(
+    h: &PackedLower,
+    z: &[Vec<f64>],
+    sigma: f64,
+    cs: &[f64],
+    b: MatRef<'_, f64>,
+) -> Vec<LowRankSolve> {
+    let n = b.nrows();
+    let mut out: Vec<LowRankSolve> = vec![Err(GiveUp::NoConvergence); cs.len()];
+    // The systems still running: (index into cs, preconditioner, recurrence).
+    let mut running: Vec<(usize, LowRank, Option<Cg>)> = Vec::new();
+    // One set of pivoted Cholesky steps, down to the largest c's tolerance, gives every c's
+    // factor as a prefix.
+    let tightest = cs.iter().map(|&c| 1e-6 / c).fold(f64::INFINITY, f64::min);
+    let path = PivotPath::new(z, sigma, low_rank_max(n), tightest);
+    for (k, &c) in cs.iter().enumerate() {
+        match path.low_rank(1e-6 / c, 1.0 / c) {
+            None => out[k] = Err(GiveUp::NoConvergence),
+            Some(p) if p.remaining() > 1.0 / c => out[k] = Err(GiveUp::RankLimit),
+            Some(p) => running.push((k, p, None)),
         }
     }
-    // The recurrence's residual drifts from the true one: check the true residual.
-    let r = b - apply_h(&x);
-    let mut backward_error: f64 = 0.0;
-    for j in 0..m {
-        let xm = col_max(&x, j);
-        let rm = col_max(&r, j);
-        // `col_max` would skip a NaN (f64::max ignores it): check finiteness on its own.
-        let finite = (0..n).all(|i| x[(i, j)].is_finite() && r[(i, j)].is_finite());
-        if !finite || rm > 4.0 * tol * xm {
-            return Err(GiveUp::NoConvergence);
-        }
-        backward_error = backward_error.max(rm / (h_norm * xm));
+    let diag = |k: usize| 1.0 + 1.0 / cs[k];
+    // Round 0: H_c·[X₀ | 1] for every system.
+    let firsts: Vec<(Mat<f64>, Mat<f64>)> = running
+        .iter()
+        .map(|(_, p, _)| Cg::first(b, |r| p.apply_inverse(r.as_ref())))
+        .collect();
+    let products = shifted_products(
+        h,
+        running
+            .iter()
+            .zip(&firsts)
+            .map(|((k, _, _), (_, x1))| (x1, diag(*k))),
+    );
+    for ((run, (x0, _)), hx1) in running.iter_mut().zip(firsts).zip(&products) {
+        let p = &run.1;
+        run.2 = Some(Cg::new(
+            b,
+            x0,
+            hx1,
+            |r| p.apply_inverse(r.as_ref()),
+            LOW_RANK_MAX_STEPS,
+        ));
     }
-    Ok((
-        x,
-        MixedStats {
-            steps,
-            backward_error,
-        },
-    ))
+    while !running.is_empty() {
+        // Each system's next need: a step's product, the final check's, or it gave up.
+        let mut wants: Vec<(usize, bool, Mat<f64>)> = Vec::new();
+        let mut gave_up = Vec::new();
+        for (slot, (k, _, cg)) in running.iter_mut().enumerate() {
+            let cg = cg.as_mut().expect("every running system has its recurrence");
+            match cg.next() {
+                Ok(Need::Step(p)) => wants.push((slot, true, p.clone())),
+                Ok(Need::Check(x)) => wants.push((slot, false, x.clone())),
+                Err(why) => {
+                    out[*k] = Err(why);
+                    gave_up.push(slot);
+                }
+            }
+        }
+        let products = shifted_products(
+            h,
+            wants
+                .iter()
+                .map(|(slot, _, v)| (v, diag(running[*slot].0))),
+        );
+        let mut finished = gave_up;
+        for ((slot, step, _), hv) in wants.iter().zip(&products) {
+            let (k, p, cg) = &mut running[*slot];
+            if *step {
+                let cg = cg.as_mut().expect("every running system has its recurrence");
+                if let Err(why) = cg.advance(hv, |r| p.apply_inverse(r.as_ref())) {
+                    out[*k] = Err(why);
+                    finished.push(*slot);
+                }
+            } else {
+                let cg = cg.take().expect("every running system has its recurrence");
+                out[*k] = cg.finish(hv).map(|(x, stats)| (x, stats, p.rank()));
+                finished.push(*slot);
+            }
+        }
+        finished.sort_unstable();
+        for slot in finished.into_iter().rev() {
+            running.remove(slot);
+        }
+    }
+    out
+}
+
+/// H_c·V for each (V, 1 + 1/c) of `parts`, all in one pass over the packed kernel `h`.
+fn shifted_products<'a>(
+    h: &PackedLower,
+    parts: impl Iterator<Item = (&'a Mat<f64>, f64)>,
+) -> Vec<Mat<f64>> {
+    let n = h.n();
+    let mut flat = Vec::new();
+    let mut diag = Vec::new();
+    let mut widths = Vec::new();
+    for (v, d) in parts {
+        for j in 0..v.ncols() {
+            flat.extend(v.col(j).iter().copied());
+            diag.push(d);
+        }
+        widths.push(v.ncols());
+    }
+    if widths.is_empty() {
+        return Vec::new();
+    }
+    let y = h.mul_diagonal(&flat, &diag);
+    let mut at = 0;
+    widths
+        .into_iter()
+        .map(|m| {
+            let part = Mat::<f64>::from_fn(n, m, |i, j| y[(at + j) * n + i]);
+            at += m;
+            part
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -458,5 +500,37 @@ mod tests {
             .all(|(a, b)| a.to_bits() == b.to_bits()));
         assert_eq!(seq[0], 1.0 + 1.0 / 50.0);
         assert_eq!(seq[300], 0.0); // (0, 1): strict upper part
+    }
+
+    /// The lock-step solve of several c gives each c the numbers of its own low-rank solve,
+    /// bit for bit, and the same reason where one gives up (c = 1e-3 passes the rank test,
+    /// the tiny σ does not).
+    #[test]
+    fn shifted_solves_are_the_single_solves() {
+        let n = 1100;
+        let (z, y) = scattered(n);
+        let b = rhs(&y);
+        for sigma in [0.67, 0.02] {
+            let cs = [1e-3, 3.0, 42.0, 1.0e5];
+            let packed = PackedLower::gaussian(&z, sigma, 1.0);
+            let many = solve_low_rank_shifts(&packed, &z, sigma, &cs, b.as_ref());
+            for (&c, got) in cs.iter().zip(many) {
+                let mut alone = PackedLower::gaussian(&z, sigma, c);
+                alone.set_diagonal(c);
+                let want = solve_low_rank(&alone, &z, sigma, c, b.as_ref());
+                match (got, want) {
+                    (Ok((x, s, r)), Ok((wx, ws, wr))) => {
+                        assert_eq!((s, r), (ws, wr), "σ {sigma} c {c}");
+                        for j in 0..x.ncols() {
+                            for i in 0..n {
+                                assert_eq!(x[(i, j)].to_bits(), wx[(i, j)].to_bits());
+                            }
+                        }
+                    }
+                    (Err(e), Err(we)) => assert_eq!(e, we, "σ {sigma} c {c}"),
+                    (g, w) => panic!("σ {sigma} c {c}: {:?} vs {:?}", g.err(), w.err()),
+                }
+            }
+        }
     }
 }

@@ -10,6 +10,7 @@
 //!
 //! [`Lssvm`] ties them together: train on raw features, predict on raw features.
 
+mod cg;
 pub mod fixed_size;
 pub mod kernel;
 pub mod mixed;

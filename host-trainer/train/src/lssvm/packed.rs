@@ -10,6 +10,7 @@
 //! bits on one thread or many.
 
 use rayon::prelude::*;
+use wide::f64x4;
 
 use super::kernel::gauss_rows;
 
@@ -56,6 +57,24 @@ impl PackedLower {
         }
     }
 
+    /// The principal submatrix on the rows and columns `keep` (increasing): the packed H of
+    /// those points, the same bits as a fill of them.
+    pub fn principal(&self, keep: &[usize]) -> PackedLower {
+        let n = keep.len();
+        let mut data = Vec::with_capacity(n * (n + 1) / 2);
+        for (a, &j) in keep.iter().enumerate() {
+            let col = self.column(j);
+            data.extend(keep[a..].iter().map(|&i| col[i - j]));
+        }
+        PackedLower { n, data }
+    }
+
+    /// H_ij (either order of i, j).
+    pub fn entry(&self, i: usize, j: usize) -> f64 {
+        let (i, j) = if i >= j { (i, j) } else { (j, i) };
+        self.column(j)[i - j]
+    }
+
     /// Order of H.
     pub fn n(&self) -> usize {
         self.n
@@ -80,6 +99,19 @@ impl PackedLower {
 
     /// H·X for the m columns of the column-major n×m `x`; returns the column-major n×m product.
     pub fn mul(&self, x: &[f64], m: usize) -> Vec<f64> {
+        self.mul_with(x, m, |_, stored| stored)
+    }
+
+    /// (K + (d_k − 1)·I)·x_k for each column x_k of the column-major `x` (n × `diag.len()`):
+    /// the product with the stored kernel part and a diagonal of the caller's per column, so
+    /// that one pass over the triangle serves the systems of several c (d = 1 + 1/c). A
+    /// column's bits are those of [`PackedLower::mul`] with the diagonal set to its d.
+    pub fn mul_diagonal(&self, x: &[f64], diag: &[f64]) -> Vec<f64> {
+        self.mul_with(x, diag.len(), |k, _| diag[k])
+    }
+
+    /// The product with column k's diagonal entry `diag(k, stored)`.
+    fn mul_with(&self, x: &[f64], m: usize, diag: impl Fn(usize, f64) -> f64 + Sync) -> Vec<f64> {
         let n = self.n;
         assert_eq!(x.len(), n * m, "x must be n×m");
         if n == 0 {
@@ -103,11 +135,20 @@ impl PackedLower {
                 let mut y = vec![0.0f64; n * m];
                 for j in w[0]..w[1] {
                     let col = self.column(j);
-                    for k in 0..m {
-                        let xk = &x[k * n..(k + 1) * n];
-                        let yk = &mut y[k * n..(k + 1) * n];
-                        let dot = axpy_dot(&col[1..], xk[j], &xk[j + 1..], &mut yk[j + 1..]);
-                        yk[j] += col[0] * xk[j] + dot;
+                    // Four columns of X at a time: their dot products are independent
+                    // chains of additions, so the core overlaps them.
+                    let mut k = 0;
+                    for (xs, ys) in x.chunks(4 * n).zip(y.chunks_mut(4 * n)) {
+                        let dots = match xs.len() / n {
+                            4 => axpy_dots::<4>(col, j, xs, ys, n).to_vec(),
+                            3 => axpy_dots::<3>(col, j, xs, ys, n).to_vec(),
+                            2 => axpy_dots::<2>(col, j, xs, ys, n).to_vec(),
+                            _ => axpy_dots::<1>(col, j, xs, ys, n).to_vec(),
+                        };
+                        for (q, dot) in dots.into_iter().enumerate() {
+                            ys[q * n + j] += diag(k + q, col[0]) * xs[q * n + j] + dot;
+                        }
+                        k += xs.len() / n;
                     }
                 }
                 y
@@ -123,30 +164,56 @@ impl PackedLower {
     }
 }
 
-/// y ← y + s·col and returns colᵀx, in one pass; four independent partial sums so that the
-/// compiler can keep the dot product in vector registers (a single running sum would fix the
-/// order of the additions and forbid it).
-fn axpy_dot(col: &[f64], s: f64, x: &[f64], y: &mut [f64]) -> f64 {
-    let mut acc = [0.0f64; 4];
-    let (c4, cr) = col.split_at(col.len() - col.len() % 4);
-    let (x4, xr) = x.split_at(c4.len());
-    let (y4, yr) = y.split_at_mut(c4.len());
-    for ((c, xx), yy) in c4
-        .chunks_exact(4)
-        .zip(x4.chunks_exact(4))
-        .zip(y4.chunks_exact_mut(4))
-    {
-        for l in 0..4 {
-            yy[l] += s * c[l];
-            acc[l] += c[l] * xx[l];
+/// For each of the K columns x_q, y_q of the column-major `xs`, `ys` (n rows each) below
+/// row j: y_q ← y_q + x_qj·h and returns hᵀx_q, h = `col` below its diagonal, in one pass
+/// over h. Each dot product keeps four partial sums, lane l taking the entries l, l + 4, …
+/// (a single running sum would fix the order of the additions and forbid vector
+/// registers), written with `wide`'s four lanes because the compiler left the plain loop
+/// scalar. Products and sums are separate roundings (no fused multiply-add), and a column's
+/// operations do not depend on K: its bits are the same alone or beside others.
+fn axpy_dots<const K: usize>(
+    col: &[f64],
+    j: usize,
+    xs: &[f64],
+    ys: &mut [f64],
+    n: usize,
+) -> [f64; K] {
+    let h = &col[1..];
+    let len = h.len();
+    let mut xq = xs.chunks_exact(n);
+    let x: [&[f64]; K] = std::array::from_fn(|_| &xq.next().expect("K columns")[j + 1..]);
+    let mut yq = ys.chunks_exact_mut(n);
+    let mut y: [&mut [f64]; K] =
+        std::array::from_fn(|_| &mut yq.next().expect("K columns")[j + 1..]);
+    let s: [f64; K] = std::array::from_fn(|q| xs[q * n + j]);
+    let s4 = s.map(f64x4::splat);
+    let mut acc = [f64x4::ZERO; K];
+    let body = len - len % 4;
+    let mut i = 0;
+    while i < body {
+        let hv = lanes(&h[i..i + 4]);
+        for q in 0..K {
+            let yv = lanes(&y[q][i..i + 4]) + s4[q] * hv;
+            y[q][i..i + 4].copy_from_slice(&yv.to_array());
+            acc[q] += hv * lanes(&x[q][i..i + 4]);
         }
+        i += 4;
     }
-    let mut dot = (acc[0] + acc[1]) + (acc[2] + acc[3]);
-    for ((c, xx), yy) in cr.iter().zip(xr).zip(yr) {
-        *yy += s * c;
-        dot += c * xx;
-    }
-    dot
+    std::array::from_fn(|q| {
+        let a = acc[q].to_array();
+        let mut dot = (a[0] + a[1]) + (a[2] + a[3]);
+        for i in body..len {
+            y[q][i] += s[q] * h[i];
+            dot += h[i] * x[q][i];
+        }
+        dot
+    })
+}
+
+/// Four consecutive values as one vector.
+#[inline]
+fn lanes(v: &[f64]) -> f64x4 {
+    f64x4::from([v[0], v[1], v[2], v[3]])
 }
 
 /// The packed storage cut into its columns, each with its index.
@@ -218,5 +285,45 @@ mod tests {
             assert_eq!(offset(n, j), sum);
             sum += n - j;
         }
+    }
+
+    /// A column's product does not depend on the columns beside it or on how its diagonal is
+    /// given, and a principal submatrix is the fill of its points.
+    #[test]
+    fn shifted_products_and_submatrices_keep_their_bits() {
+        let n = 203;
+        let (z, _) = scattered(n);
+        let sigma = 0.7;
+        let x: Vec<f64> = (0..n * 5)
+            .map(|i| ((i * 37 % 101) as f64 - 50.0) / 7.0)
+            .collect();
+        let cs = [0.5, 2.0, 9.0, 40.0, 1e4];
+        let diag: Vec<f64> = cs.iter().map(|c| 1.0 + 1.0 / c).collect();
+        let p = PackedLower::gaussian(&z, sigma, 1.0);
+        let all = p.mul_diagonal(&x, &diag);
+        for (k, &c) in cs.iter().enumerate() {
+            let mut alone = PackedLower::gaussian(&z, sigma, c);
+            alone.set_diagonal(c);
+            let y = alone.mul(&x[k * n..(k + 1) * n], 1);
+            assert!(y
+                .iter()
+                .zip(&all[k * n..(k + 1) * n])
+                .all(|(a, b)| a.to_bits() == b.to_bits()));
+        }
+        let keep: Vec<usize> = (0..n).filter(|i| i % 3 != 1).collect();
+        let sub = p.principal(&keep);
+        let zk: Vec<Vec<f64>> = keep.iter().map(|&i| z[i].clone()).collect();
+        let fill = PackedLower::gaussian(&zk, sigma, 1.0);
+        assert_eq!(sub.n(), keep.len());
+        assert!(sub
+            .data
+            .iter()
+            .zip(&fill.data)
+            .all(|(a, b)| a.to_bits() == b.to_bits()));
+        assert_eq!(p.entry(3, 17).to_bits(), p.entry(17, 3).to_bits());
+        assert_eq!(
+            p.entry(3, 17).to_bits(),
+            crate::lssvm::kernel::gauss(&z[3], &z[17], 1.0 / (2.0 * sigma * sigma)).to_bits()
+        );
     }
 }

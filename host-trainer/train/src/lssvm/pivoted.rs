@@ -37,18 +37,25 @@ pub struct LowRank {
     remaining: f64,
 }
 
-impl LowRank {
-    /// Partial pivoted Cholesky of the Gaussian kernel matrix of the rows of `z` (width σ):
-    /// pivots are taken while the largest remaining diagonal exceeds `tol` and fewer than
-    /// `max_rank` columns exist; `shift` is H's diagonal excess 1/c. `None` if the inner
-    /// matrix cannot be factorised (only for non-finite inputs).
-    pub fn build(
-        z: &[Vec<f64>],
-        sigma: f64,
-        shift: f64,
-        max_rank: usize,
-        tol: f64,
-    ) -> Option<LowRank> {
+/// The steps of a partial pivoted Cholesky of the Gaussian kernel matrix, taken down to one
+/// tolerance: the pivots do not depend on where the steps stop, so the factor for any larger
+/// tolerance is a prefix of these columns ([`PivotPath::low_rank`]), the same bits as a
+/// factorisation stopped there.
+pub struct PivotPath {
+    n: usize,
+    /// The columns of L, column-major.
+    lbuf: Vec<f64>,
+    /// Pivot row of each column.
+    pivots: Vec<usize>,
+    /// The largest remaining diagonal before each column (its pivot's), and after the last
+    /// when the steps stopped on the tolerance rather than on the rank.
+    largest: Vec<f64>,
+}
+
+impl PivotPath {
+    /// The steps for the rows of `z` (width σ): pivots are taken while the largest remaining
+    /// diagonal exceeds `tol` and fewer than `max_rank` columns exist.
+    pub fn new(z: &[Vec<f64>], sigma: f64, max_rank: usize, tol: f64) -> PivotPath {
         let n = z.len();
         let dim = z.first().map_or(0, Vec::len);
         let flat: Vec<f64> = z.iter().flat_map(|r| r.iter().copied()).collect();
@@ -57,6 +64,8 @@ impl LowRank {
         // L column-major, grown one column at a time (the rank is usually far below
         // `max_rank`).
         let mut lbuf: Vec<f64> = Vec::new();
+        let mut pivots = Vec::new();
+        let mut largest = Vec::new();
         // Remaining diagonal of K − L·Lᵀ (K's diagonal is 1).
         let mut d = vec![1.0f64; n];
         let mut rank = 0;
@@ -69,6 +78,7 @@ impl LowRank {
                         (0, f64::NEG_INFINITY),
                         |b, (i, v)| if v > b.1 { (i, v) } else { b },
                     );
+            largest.push(dp);
             if dp.is_nan() || dp <= tol {
                 break;
             }
@@ -89,9 +99,35 @@ impl LowRank {
                 d[i] -= v * v;
             }
             d[p] = 0.0;
+            pivots.push(p);
             rank += 1;
         }
-        let l = MatRef::from_column_major_slice(&lbuf, n, rank).to_owned();
+        PivotPath {
+            n,
+            lbuf,
+            pivots,
+            largest,
+        }
+    }
+
+    /// The preconditioner of the steps a factorisation stopped at `tol` (at least the
+    /// path's) would take, with `shift` = 1/c: [`LowRank::build`]'s result.
+    pub fn low_rank(&self, tol: f64, shift: f64) -> Option<LowRank> {
+        let n = self.n;
+        let rank = self
+            .largest
+            .iter()
+            .position(|dp| dp.is_nan() || *dp <= tol)
+            .unwrap_or(self.pivots.len());
+        // The remaining diagonal after `rank` columns, in the order the steps formed it.
+        let mut d = vec![1.0f64; n];
+        for (col, &p) in self.lbuf.chunks_exact(n.max(1)).zip(&self.pivots).take(rank) {
+            for (di, v) in d.iter_mut().zip(col) {
+                *di -= v * v;
+            }
+            d[p] = 0.0;
+        }
+        let l = MatRef::from_column_major_slice(&self.lbuf[..n * rank], n, rank).to_owned();
         // Rounding can leave a remaining diagonal slightly negative: it is ≥ 0 in exact
         // arithmetic.
         let d_inv: Vec<f64> = d.iter().map(|v| 1.0 / (v.max(0.0) + shift)).collect();
@@ -114,6 +150,22 @@ impl LowRank {
             inner,
             remaining,
         })
+    }
+}
+
+impl LowRank {
+    /// Partial pivoted Cholesky of the Gaussian kernel matrix of the rows of `z` (width σ):
+    /// pivots are taken while the largest remaining diagonal exceeds `tol` and fewer than
+    /// `max_rank` columns exist; `shift` is H's diagonal excess 1/c. `None` if the inner
+    /// matrix cannot be factorised (only for non-finite inputs).
+    pub fn build(
+        z: &[Vec<f64>],
+        sigma: f64,
+        shift: f64,
+        max_rank: usize,
+        tol: f64,
+    ) -> Option<LowRank> {
+        PivotPath::new(z, sigma, max_rank, tol).low_rank(tol, shift)
     }
 
     /// Columns of L.
@@ -285,5 +337,29 @@ mod tests {
         let worst = p.d_inv.iter().map(|v| 1.0 / v - shift).fold(0.0, f64::max);
         assert!(worst <= 1e-6 + 1e-12, "{worst:e}");
         assert!(p.rank() < n / 4, "rank {}", p.rank());
+    }
+
+    /// A factor read off a path taken to a tighter tolerance is the factor built to its own
+    /// tolerance, bit for bit.
+    #[test]
+    fn a_path_prefix_is_the_stopped_factor() {
+        let n = 300;
+        let (z, _) = scattered(n);
+        let sigma = 0.5;
+        let path = PivotPath::new(&z, sigma, 80, 1e-12);
+        let v = Mat::<f64>::from_fn(n, 2, |i, j| ((i * 7 + j * 3) % 11) as f64 - 5.0);
+        for c in [1e-2, 1.0, 1e3, 1e6] {
+            let (tol, shift) = (1e-6 / c, 1.0 / c);
+            let a = path.low_rank(tol, shift).unwrap();
+            let b = LowRank::build(&z, sigma, shift, 80, tol).unwrap();
+            assert_eq!(a.rank(), b.rank(), "c {c}");
+            assert_eq!(a.remaining().to_bits(), b.remaining().to_bits());
+            let (pa, pb) = (a.apply_inverse(v.as_ref()), b.apply_inverse(v.as_ref()));
+            for j in 0..2 {
+                for i in 0..n {
+                    assert_eq!(pa[(i, j)].to_bits(), pb[(i, j)].to_bits(), "c {c}");
+                }
+            }
+        }
     }
 }

@@ -213,15 +213,49 @@ pub fn solve_packed(
     sigma: f64,
     c: f64,
 ) -> Result<(Solution, SolvePath), LssvmError> {
-    let n = z.len();
     let rhs = rhs_y1(y);
-    let low_rank = match mixed::solve_low_rank(packed, z, sigma, c, rhs.as_ref()) {
+    match mixed::solve_low_rank(packed, z, sigma, c, rhs.as_ref()) {
         Ok((x, stats, rank)) => {
-            return eliminate(x.as_ref())
-                .map(|(sol, _, _)| (sol, SolvePath::LowRank { rank, stats }))
+            eliminate(x.as_ref()).map(|(sol, _, _)| (sol, SolvePath::LowRank { rank, stats }))
         }
-        Err(why) => why,
-    };
+        Err(why) => after_low_rank(packed, rhs, why),
+    }
+}
+
+/// [`solve_packed`] at each c of `cs` on one kernel fill `packed`: the low-rank paths of all
+/// c in lock step ([`mixed::solve_low_rank_shifts`]), then the later paths one c at a time
+/// for those it could not solve (with `packed`'s diagonal set to that c). The same
+/// solutions, bit for bit, as [`solve_packed`] per c.
+pub fn solve_packed_shifts(
+    packed: &mut PackedLower,
+    z: &[Vec<f64>],
+    y: &[f64],
+    sigma: f64,
+    cs: &[f64],
+) -> Vec<Result<(Solution, SolvePath), LssvmError>> {
+    let rhs = rhs_y1(y);
+    let low = mixed::solve_low_rank_shifts(packed, z, sigma, cs, rhs.as_ref());
+    low.into_iter()
+        .zip(cs)
+        .map(|(r, &c)| match r {
+            Ok((x, stats, rank)) => eliminate(x.as_ref())
+                .map(|(sol, _, _)| (sol, SolvePath::LowRank { rank, stats })),
+            Err(why) => {
+                packed.set_diagonal(c);
+                after_low_rank(packed, rhs.clone(), why)
+            }
+        })
+        .collect()
+}
+
+/// The paths after the low-rank one gave up (`low_rank` says why): f32-Cholesky-
+/// preconditioned CG, then the f64 Cholesky.
+fn after_low_rank(
+    packed: &PackedLower,
+    mut rhs: Mat<f64>,
+    low_rank: mixed::GiveUp,
+) -> Result<(Solution, SolvePath), LssvmError> {
+    let n = packed.n();
     let h = packed.to_square_lower();
     let h32: Vec<f32> = h.iter().map(|v| *v as f32).collect();
     let why = match mixed::solve(&h, h32, rhs.as_ref()) {
@@ -233,7 +267,6 @@ pub fn solve_packed(
     };
     let llt = llt_f64(&h, n)?;
     drop(h);
-    let mut rhs = rhs;
     llt.solve_in_place(&mut rhs);
     eliminate(rhs.as_ref()).map(|(sol, _, _)| {
         (

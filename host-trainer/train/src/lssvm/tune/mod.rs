@@ -238,9 +238,16 @@ fn score_row(
 ) -> Vec<f64> {
     // Folds in parallel; the squared residuals are then added in fold order, so the score
     // does not depend on how the work was split.
+    // The folds' training matrices are principal submatrices of the whole set's: one fill
+    // at σ serves every fold whose training part takes the packed path.
+    let n = z.len();
+    let packed = lin.is_empty()
+        && sigma > 0.0
+        && folds.iter().any(|f| n - f.len() >= solve::MIXED_MIN_N);
+    let full = packed.then(|| super::packed::PackedLower::gaussian(z, sigma, 1.0));
     let per_fold: Vec<Vec<Option<Vec<f64>>>> = folds
         .par_iter()
-        .map(|fold| fold_residuals(z, lin, y, fold, sigma, cs))
+        .map(|fold| fold_residuals(z, lin, y, fold, (sigma, cs), full.as_ref()))
         .collect();
     let count: usize = folds.iter().map(Vec::len).sum();
     (0..cs.len())
@@ -266,8 +273,8 @@ fn fold_residuals(
     lin: &[Vec<f64>],
     y: &[f64],
     fold: &[usize],
-    sigma: f64,
-    cs: &[f64],
+    (sigma, cs): (f64, &[f64]),
+    full: Option<&super::packed::PackedLower>,
 ) -> Vec<Option<Vec<f64>>> {
     let n = z.len();
     let inv = 1.0 / (2.0 * sigma * sigma);
@@ -281,34 +288,111 @@ fn fold_residuals(
         .map(|col| keep.iter().map(|&i| col[i]).collect())
         .collect();
     let nt = zt.len();
-    // Eq. (9) without linear columns from MIXED_MIN_N rows on: `solve::solve`'s paths
-    // (low-rank-preconditioned CG first) on one packed fill per σ, as training solves it.
-    let mut packed: Option<super::packed::PackedLower> = None;
-    let mut kernel: Option<Vec<f64>> = None;
+    let fill = full.map(|f| f.principal(&keep));
+    let solutions = fold_solutions(&zt, &lt, &yt, (sigma, cs), fill);
     // Held-out row i's kernel values against the training rows, in training order.
     let mut k_out: Option<Vec<f64>> = None;
-    let mut out = Vec::with_capacity(cs.len());
-    for &c in cs {
-        if solve::validate(&zt, &yt, sigma, c).is_err()
-            || lt.iter().flatten().any(|v| !v.is_finite())
-        {
-            out.push(None);
-            continue;
+    solutions
+        .into_iter()
+        .map(|sol| {
+            let sol = sol?;
+            let ko = k_out.get_or_insert_with(|| {
+                let flat: Vec<f64> = zt.iter().flatten().copied().collect();
+                let dim = zt.first().map_or(0, Vec::len);
+                let mut ko = vec![0.0; fold.len() * nt];
+                for (r, &i) in fold.iter().enumerate() {
+                    let row = &mut ko[r * nt..(r + 1) * nt];
+                    match full {
+                        // The same bits: an entry's two points enter only as (a − b)².
+                        Some(f) => row
+                            .iter_mut()
+                            .zip(&keep)
+                            .for_each(|(v, &t)| *v = f.entry(i, t)),
+                        None => gauss_rows(&flat, dim, &z[i], inv, row),
+                    }
+                }
+                ko
+            });
+            let r: Vec<f64> = fold
+                .iter()
+                .enumerate()
+                .map(|(r, &i)| {
+                    let f: f64 = ko[r * nt..(r + 1) * nt]
+                        .iter()
+                        .zip(&sol.solution.alpha)
+                        .map(|(g, a)| a * g)
+                        .sum::<f64>()
+                        + sol.solution.bias
+                        + lin
+                            .iter()
+                            .zip(&sol.beta)
+                            .map(|(col, b)| b * col[i])
+                            .sum::<f64>();
+                    (y[i] - f).powi(2)
+                })
+                .collect();
+            Some(r)
+        })
+        .collect()
+}
+
+/// The fold's model at σ and each of `cs` on its training rows `zt`, `lt`, `yt` (`None`
+/// where it cannot be trained). Eq. (9) without linear columns from `MIXED_MIN_N` rows on:
+/// `solve::solve_packed`'s paths on one packed fill per σ (`fill`, the kernel of `zt` when
+/// the caller has it), all c at once; otherwise the dense partially linear solve, its kernel
+/// filled once and kept for the next c.
+fn fold_solutions(
+    zt: &[Vec<f64>],
+    lt: &[Vec<f64>],
+    yt: &[f64],
+    (sigma, cs): (f64, &[f64]),
+    fill: Option<super::packed::PackedLower>,
+) -> Vec<Option<solve::PartiallyLinear>> {
+    let nt = zt.len();
+    let valid: Vec<bool> = cs
+        .iter()
+        .map(|&c| {
+            solve::validate(zt, yt, sigma, c).is_ok() && lt.iter().flatten().all(|v| v.is_finite())
+        })
+        .collect();
+    if lt.is_empty() && nt >= solve::MIXED_MIN_N {
+        let good: Vec<f64> = cs
+            .iter()
+            .zip(&valid)
+            .filter(|(_, v)| **v)
+            .map(|(c, _)| *c)
+            .collect();
+        let mut solved = match good.first() {
+            Some(&c0) => {
+                let mut packed =
+                    fill.unwrap_or_else(|| super::packed::PackedLower::gaussian(zt, sigma, c0));
+                solve::solve_packed_shifts(&mut packed, zt, yt, sigma, &good)
+            }
+            None => Vec::new(),
         }
-        let iterative = lin.is_empty() && nt >= solve::MIXED_MIN_N;
-        let sol = if iterative {
-            let p =
-                packed.get_or_insert_with(|| super::packed::PackedLower::gaussian(&zt, sigma, c));
-            p.set_diagonal(c);
-            solve::solve_packed(p, &zt, &yt, sigma, c).map(|(solution, _)| solve::PartiallyLinear {
-                solution,
-                beta: Vec::new(),
+        .into_iter();
+        return valid
+            .iter()
+            .map(|&v| {
+                let (solution, _) = v.then(|| solved.next())??.ok()?;
+                Some(solve::PartiallyLinear {
+                    solution,
+                    beta: Vec::new(),
+                })
             })
-        } else {
+            .collect();
+    }
+    let mut kernel: Option<Vec<f64>> = None;
+    cs.iter()
+        .zip(&valid)
+        .map(|(&c, &v)| {
+            if !v {
+                return None;
+            }
             let mut h = match &kernel {
                 Some(h) => h.clone(),
                 None => {
-                    let h = super::mixed::h_lower(&zt, sigma, c);
+                    let h = super::mixed::h_lower(zt, sigma, c);
                     if nt <= SHARED_FILL_MAX && cs.len() > 1 {
                         kernel = Some(h.clone());
                     }
@@ -316,42 +400,9 @@ fn fold_residuals(
                 }
             };
             solve::set_h_diagonal(&mut h, nt, c);
-            solve::partially_linear_on(&h, &lt, &yt)
-        };
-        let Ok(sol) = sol else {
-            out.push(None);
-            continue;
-        };
-        let ko = k_out.get_or_insert_with(|| {
-            let flat: Vec<f64> = zt.iter().flatten().copied().collect();
-            let dim = zt.first().map_or(0, Vec::len);
-            let mut ko = vec![0.0; fold.len() * nt];
-            for (r, &i) in fold.iter().enumerate() {
-                gauss_rows(&flat, dim, &z[i], inv, &mut ko[r * nt..(r + 1) * nt]);
-            }
-            ko
-        });
-        let r: Vec<f64> = fold
-            .iter()
-            .enumerate()
-            .map(|(r, &i)| {
-                let f: f64 = ko[r * nt..(r + 1) * nt]
-                    .iter()
-                    .zip(&sol.solution.alpha)
-                    .map(|(g, a)| a * g)
-                    .sum::<f64>()
-                    + sol.solution.bias
-                    + lin
-                        .iter()
-                        .zip(&sol.beta)
-                        .map(|(col, b)| b * col[i])
-                        .sum::<f64>();
-                (y[i] - f).powi(2)
-            })
-            .collect();
-        out.push(Some(r));
-    }
-    out
+            solve::partially_linear_on(&h, lt, yt).ok()
+        })
+        .collect()
 }
 
 /// The cross-validated RMS, °/h, of one (σ, c) of the (partially linear) model under
