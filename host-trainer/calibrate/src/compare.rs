@@ -100,30 +100,51 @@ pub(crate) fn compare(
     let rate: Vec<f64> = keep.iter().map(|&k| part.series.rows[k][1]).collect();
     let raw: Vec<f64> = keep.iter().map(|&k| stream.rate_dph[k]).collect();
     let scorer = HeldOutScorer::new(&time, &rate, &raw, opts.window);
-    let mut means = Vec::new();
-    let mut judge = |out: Vec<f64>| -> Option<HeldOutScore> {
-        let s = (has_test && !out.is_empty()).then(|| scorer.score(&out));
-        means.push(if s.is_some() {
-            scorer.window_means(&out)
+    // The board's output is made on one thread (its dT/dt estimator runs through the stream
+    // in order) beside the others, each of which is scored while the next is made (the
+    // scoring runs on one thread, the models' outputs on all): at most three 1 Hz outputs
+    // are held at a time.
+    let judge = |out: Vec<f64>| -> (Option<HeldOutScore>, Vec<f64>) {
+        if has_test && !out.is_empty() {
+            (Some(scorer.score(&out)), scorer.window_means(&out))
         } else {
-            Vec::new()
-        });
-        s
+            (None, Vec::new())
+        }
     };
-    let held = [
-        judge(raw),
-        judge(compensate(&part, &|r| fitted.poly.predict(r[0]))),
-        judge(stepwise_output(&part, fitted, has_test)?),
-        {
-            let lssvm_at = fitted.lssvm.predictor();
-            judge(compensate(&part, &|r| lssvm_at.predict(r)))
-        },
-        judge(if has_test {
-            board_output(stream, &fitted.board_model, keep)?
-        } else {
-            Vec::new()
-        }),
+    let lssvm_at = fitted.lssvm.predictor();
+    type Make<'m> = &'m (dyn Fn() -> Result<Vec<f64>, CalibrateError> + Sync);
+    let makers: [Make<'_>; 4] = [
+        &|| Ok(raw.clone()),
+        &|| Ok(compensate(&part, &|r| fitted.poly.predict(r[0]))),
+        &|| stepwise_output(&part, fitted, has_test),
+        &|| Ok(compensate(&part, &|r| lssvm_at.predict(r))),
     ];
+    let (board, judged) = rayon::join(
+        || {
+            if has_test {
+                board_output(stream, &fitted.board_model, keep)
+            } else {
+                Ok(Vec::new())
+            }
+        },
+        || -> Result<Vec<_>, CalibrateError> {
+            let mut judged = Vec::with_capacity(makers.len() + 1);
+            let mut last: Option<Vec<f64>> = None;
+            for make in makers {
+                let (scored, next) = rayon::join(|| last.take().map(judge), make);
+                judged.extend(scored);
+                last = Some(next?);
+            }
+            judged.extend(last.map(judge));
+            Ok(judged)
+        },
+    );
+    let mut judged = judged?;
+    judged.push(judge(board?));
+    let (held, means): (Vec<Option<HeldOutScore>>, Vec<Vec<f64>>) = judged.into_iter().unzip();
+    let held: [Option<HeldOutScore>; 5] = held
+        .try_into()
+        .map_err(|_| CalibrateError::Internal("five held-out outputs".to_string()))?;
     let rows = rows(sets, fitted, held);
     let (test_span_s, series) = if has_test {
         let temp: Vec<f64> = keep.iter().map(|&k| stream.temp_c[k]).collect();
