@@ -65,6 +65,11 @@ pub struct BenchmarkDiagnoseArgs {
     /// node the temperature sensor reads; the base bias stays on the sensor's node.
     #[arg(long)]
     pub effect_elsewhere: bool,
+    /// Mismatched set only: beside each hidden library term of the bias, a second term of
+    /// another mechanism at a detectability of its own; the report adds how often each of
+    /// the two is found.
+    #[arg(long)]
+    pub two_effects: bool,
     /// Mismatched set only: one artefact of a chamber's data logger on each recording
     /// (dropouts of minutes, short gaps, means of a few seconds, Unix time stamps from a
     /// drifting, jittery clock, temperature readings at a sensor's error values); each case
@@ -198,6 +203,7 @@ fn run_mismatched_set(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
         other_shapes: args.other_shapes,
         effect_elsewhere: args.effect_elsewhere,
         logger: args.logger,
+        second_effect: args.two_effects,
     };
     opts.shift = usize::from(args.shift);
     opts.phases = usize::from(args.phases);

@@ -13,9 +13,11 @@ use super::noise::{describe_noise, NoiseDraw, PAPER_ARW, PAPER_BI};
 use super::shapes::Shape;
 use super::thermal::{self, describe_body, describe_chamber, Body, Chamber, Profile, Trajectory};
 use super::{uni, Kind};
+use crate::diagnose::cases::scale_amplitude;
 use crate::diagnose::detectability::amplitude_at;
 use crate::diagnose::BenchError;
-use rlg_diagnose::prepare::{prepare, PhysicsModel};
+use rlg_diagnose::candidates::Family;
+use rlg_diagnose::prepare::{prepare, PhysicsModel, Prepared};
 use rlg_eval::paper::eq11;
 use rlg_io::recording::Recording;
 use rlg_physics::{contribution, Axis, Role, Term};
@@ -193,6 +195,9 @@ pub struct Case {
     pub effect_elsewhere: bool,
     /// The data logger's artefact on the recording ([`Variant::logger`]).
     pub logger: Option<Logger>,
+    /// The second hidden effect ([`Variant::second_effect`]): its term at its amplitude, on
+    /// the sensor's node, and its D alone (against the baseline, as the first's).
+    pub second: Option<(Term, f64)>,
     /// Chamber and body history.
     pub trajectory: Trajectory,
     /// What the diagnosis reads.
@@ -271,6 +276,9 @@ pub struct Variant {
     pub effect_elsewhere: bool,
     /// One artefact of a chamber's data logger on the finished recording ([`Logger`]).
     pub logger: bool,
+    /// Beside a library term of the bias, a second one of another mechanism at a D of its
+    /// own ([`Case::second`]): is each found when there are two?
+    pub second_effect: bool,
 }
 
 /// What a hidden effect is driven by: the sensor's node, or with `elsewhere` the body's
@@ -439,7 +447,15 @@ fn draw_case(
         let peak = a * e.iter().fold(0.0f64, |m, v| m.max(v.abs())) / s1;
         let h = unit.scaled(a);
         let stats = (a * marg, span, peak);
-        return Ok(assemble(
+        let second = match (variant.second_effect, kind) {
+            (true, Kind::Library(first)) => {
+                let second = second_effect(first, (seed, id), &tr, &prep, &metric, (lo, hi));
+                c.bias.extend(second.as_ref().map(|s| s.0.clone()));
+                second
+            }
+            _ => None,
+        };
+        let mut case = assemble(
             id,
             kind,
             c,
@@ -450,12 +466,52 @@ fn draw_case(
             tr,
             read,
             variant.effect_elsewhere,
-        ));
+        );
+        case.second = second;
+        return Ok(case);
     }
     fallback.ok_or_else(|| BenchError::Truth {
         path: format!("mismatched case {id}"),
         message: format!("no draw in {TRIES} reached detectability {target:.2}"),
     })
+}
+
+/// The mechanisms of the bias a second effect is drawn from: those with an amplitude.
+const SECOND_FAMILIES: [Family; 7] = [
+    Family::Warmup,
+    Family::Aging,
+    Family::ModeHop,
+    Family::Backscatter,
+    Family::Periodic,
+    Family::Hysteresis,
+    Family::GradientLag,
+];
+
+/// A second library term of the bias beside a case's `first` family: another mechanism of
+/// [`SECOND_FAMILIES`], drawn from a stream of its own (so the case is otherwise its
+/// single-effect twin) and scaled to a D of its own drawn in 3…10, on the sensor's node.
+/// `None` when its D cannot be reached on these conditions.
+fn second_effect(
+    first: Family,
+    (seed, id): (u64, usize),
+    tr: &Trajectory,
+    prep: &Prepared,
+    metric: &Metric,
+    (lo, hi): (f64, f64),
+) -> Option<(Term, f64)> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5ec0_0d00_5ec0_0d00);
+    rng.set_stream(id as u64);
+    let pool: Vec<Family> = SECOND_FAMILIES
+        .into_iter()
+        .filter(|g| g.mechanism() != first.mechanism())
+        .collect();
+    let g = pool[(uni(&mut rng, 0.0, pool.len() as f64) as usize).min(pool.len() - 1)];
+    let target = uni(&mut rng, 3.0, 10.0);
+    let term = library_term(g, &mut rng, lo, hi);
+    let e = contribution(&term, &tr.t_s, &tr.node_c, &tr.dnode_c_per_s);
+    let d_unit = metric.d(prep, &e);
+    (d_unit > 0.0 && d_unit.is_finite())
+        .then(|| (scale_amplitude(&term, target / d_unit), target))
 }
 
 /// The case with its recording: base bias and hidden effect on the sensor node, the noise
@@ -503,6 +559,7 @@ fn assemble(
         peak_over_sigma1,
         effect_elsewhere,
         logger: None,
+        second: None,
         trajectory: tr,
         recording,
     }

@@ -250,6 +250,39 @@ pub struct MismatchResult {
     pub form: Option<&'static str>,
     /// The scored outcome (`profile` describes every condition drawn).
     pub result: CaseResult,
+    /// With a second hidden effect ([`Variant::second_effect`]): which of the two were found.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub two: Option<TwoFound>,
+}
+
+/// Which effects of a case with two were found: each counts when some finding names its
+/// mechanism, whatever its rank.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TwoFound {
+    /// The first effect's D and whether a finding names it.
+    pub first: (f64, bool),
+    /// The second's.
+    pub second: (f64, bool),
+    /// The second's mechanism.
+    pub second_mechanism: String,
+}
+
+impl TwoFound {
+    /// The outcome on `case`'s diagnosis `d` (`None` for a case with one effect).
+    fn of(case: &Case, d: &rlg_diagnose::Diagnosis) -> Option<TwoFound> {
+        let (term, d2) = case.second.as_ref()?;
+        let named = |m: rlg_physics::Mechanism| d.findings.iter().any(|f| f.mechanism == m);
+        let first = match &case.hidden {
+            Hidden::Library { term } => term.mechanism(),
+            Hidden::Shaped { shape } => shape.family().mechanism(),
+            _ => return None,
+        };
+        Some(TwoFound {
+            first: (case.d, named(first)),
+            second: (*d2, named(term.mechanism())),
+            second_mechanism: term.name().to_string(),
+        })
+    }
 }
 
 /// The truth file written beside a kept recording (not read by the scoring).
@@ -263,6 +296,8 @@ struct TruthFile<'a> {
     conditions: &'a Conditions,
     #[serde(skip_serializing_if = "Option::is_none")]
     logger: Option<&'a Logger>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    second: Option<&'a (rlg_physics::Term, f64)>,
 }
 
 /// Runs the mismatched set, writing each recording to `out_dir` (deleted after scoring
@@ -292,6 +327,7 @@ pub fn run_mismatched(
                 hidden: &case.hidden,
                 conditions: &case.conditions,
                 logger: case.logger.as_ref(),
+                second: case.second.as_ref(),
             };
             let json = serde_json::to_vec_pretty(&tf).map_err(|e| BenchError::Truth {
                 path: truth.display().to_string(),
@@ -324,6 +360,7 @@ pub fn run_mismatched(
                     r.shift = opts.shift;
                     r
                 },
+                two: TwoFound::of(&case, &d),
             })
         })
         .collect()

@@ -70,11 +70,41 @@ pub fn mismatch_report_markdown(results: &[MismatchResult]) -> String {
         );
     }
     summary(&mut o, results, &clean, ra);
+    two_effects_table(&mut o, results);
     forms_table(&mut o, results);
     o.push_str(&calibration_markdown(&clean));
     conditions_table(&mut o, results, ra);
     confusion_matrix(&mut o, results);
     o
+}
+
+/// With two effects hidden (`--two-effects`): how often each is named by some finding,
+/// by the D of each.
+fn two_effects_table(o: &mut String, results: &[MismatchResult]) {
+    let two: Vec<&super::TwoFound> = results.iter().filter_map(|r| r.two.as_ref()).collect();
+    if two.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        o,
+        "\nTwo effects hidden: each counts as found when some finding names its mechanism.\n\n\
+         | cases | first found | second found | both found |\n|---|---|---|---|"
+    );
+    for (name, lo) in [("both D ≥ 6", 6.0), ("both D ≥ 3", 3.0)] {
+        let set: Vec<&&super::TwoFound> = two
+            .iter()
+            .filter(|t| t.first.0 >= lo && t.second.0 >= lo)
+            .collect();
+        let n = |f: &dyn Fn(&super::TwoFound) -> bool| set.iter().filter(|t| f(t)).count();
+        let _ = writeln!(
+            o,
+            "| {name} | {} | {} | {} |",
+            pct(n(&|t| t.first.1), set.len()),
+            pct(n(&|t| t.second.1), set.len()),
+            pct(n(&|t| t.first.1 && t.second.1), set.len())
+        );
+    }
+    o.push('\n');
 }
 
 /// The summary table: false alarms, top-1 by detectability, parameters, effects outside the

@@ -323,6 +323,7 @@ fn made_up(id: usize, kind: Kind, truth: Label, predicted: Label, p: f64) -> Mis
         kind,
         conditions: vec!["angle quantisation".into()],
         form: None,
+        two: None,
         result: CaseResult {
             id,
             profile: String::new(),
@@ -727,4 +728,55 @@ fn logger_artefacts_change_only_the_recording() {
     }
     let _ = std::fs::remove_dir_all(&dir);
     assert_eq!(seen.len(), 5, "{seen:?}");
+}
+
+/// A second effect leaves the first as its single-effect twin draws it, is another
+/// mechanism of the bias at a D of its own in 3…10, and adds exactly its term to the rate
+/// (the noise and the reading are the twin's); a sensor term gets none.
+#[test]
+fn a_second_effect_is_another_mechanism_beside_the_first() {
+    let model = PhysicsModel::paper();
+    let variant = Variant {
+        second_effect: true,
+        ..Variant::default()
+    };
+    let mut seen = 0;
+    let families = [Family::Warmup, Family::Aging, Family::Hysteresis, Family::ModeHop];
+    for (id, f) in families.into_iter().enumerate() {
+        let kind = Kind::Library(f);
+        let one = build_case(id, kind, 7, &model).expect("case");
+        let two = build_case_in(id, kind, 7, &model, variant).expect("case");
+        assert_eq!((&two.hidden, two.d), (&one.hidden, one.d), "{}", f.name());
+        let Some((term, d2)) = &two.second else {
+            continue;
+        };
+        seen += 1;
+        assert_ne!(term.mechanism(), f.mechanism());
+        assert!((3.0..10.0).contains(d2), "{d2}");
+        assert_eq!(two.conditions.bias.last(), Some(term));
+        assert_eq!(two.recording.temp_c, one.recording.temp_c);
+        let tr = &two.trajectory;
+        let added = rlg_physics::contribution(term, &tr.t_s, &tr.node_c, &tr.dnode_c_per_s);
+        // The counted angle's quantum (≤ 0.2″) is the only part of the noise that does not
+        // add: over 100 s its rounding moves a mean by at most 2 × 0.2″ / 100 s = 0.004 °/h.
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        let diff: Vec<f64> = two
+            .recording
+            .rate_dph
+            .iter()
+            .zip(&one.recording.rate_dph)
+            .map(|(a, b)| a - b)
+            .collect();
+        let worst = diff
+            .chunks_exact(100)
+            .zip(added.chunks_exact(100))
+            .map(|(d, e)| (mean(d) - mean(e)).abs())
+            .fold(0.0, f64::max);
+        let peak = added.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(peak > 0.0 && worst <= 0.0041, "{worst} against a peak of {peak}");
+    }
+    assert!(seen >= 3, "{seen} of 4 cases got a second effect");
+    let sensor = build_case_in(9, Kind::Library(Family::SensorLag), 7, &model, variant)
+        .expect("case");
+    assert!(sensor.second.is_none());
 }
