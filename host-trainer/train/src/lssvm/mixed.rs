@@ -268,7 +268,9 @@ pub fn solve_low_rank_shifts(
         let mut wants: Vec<(usize, bool, Mat<f64>)> = Vec::new();
         let mut gave_up = Vec::new();
         for (slot, (k, _, cg)) in running.iter_mut().enumerate() {
-            let cg = cg.as_mut().expect("every running system has its recurrence");
+            let cg = cg
+                .as_mut()
+                .expect("every running system has its recurrence");
             match cg.next() {
                 Ok(Need::Step(p)) => wants.push((slot, true, p.clone())),
                 Ok(Need::Check(x)) => wants.push((slot, false, x.clone())),
@@ -280,15 +282,15 @@ pub fn solve_low_rank_shifts(
         }
         let products = shifted_products(
             h,
-            wants
-                .iter()
-                .map(|(slot, _, v)| (v, diag(running[*slot].0))),
+            wants.iter().map(|(slot, _, v)| (v, diag(running[*slot].0))),
         );
         let mut finished = gave_up;
         for ((slot, step, _), hv) in wants.iter().zip(&products) {
             let (k, p, cg) = &mut running[*slot];
             if *step {
-                let cg = cg.as_mut().expect("every running system has its recurrence");
+                let cg = cg
+                    .as_mut()
+                    .expect("every running system has its recurrence");
                 if let Err(why) = cg.advance(hv, |r| p.apply_inverse(r.as_ref())) {
                     out[*k] = Err(why);
                     finished.push(*slot);

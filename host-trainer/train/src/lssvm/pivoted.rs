@@ -121,7 +121,12 @@ impl PivotPath {
             .unwrap_or(self.pivots.len());
         // The remaining diagonal after `rank` columns, in the order the steps formed it.
         let mut d = vec![1.0f64; n];
-        for (col, &p) in self.lbuf.chunks_exact(n.max(1)).zip(&self.pivots).take(rank) {
+        for (col, &p) in self
+            .lbuf
+            .chunks_exact(n.max(1))
+            .zip(&self.pivots)
+            .take(rank)
+        {
             for (di, v) in d.iter_mut().zip(col) {
                 *di -= v * v;
             }

@@ -238,8 +238,9 @@ pub fn solve_packed_shifts(
     low.into_iter()
         .zip(cs)
         .map(|(r, &c)| match r {
-            Ok((x, stats, rank)) => eliminate(x.as_ref())
-                .map(|(sol, _, _)| (sol, SolvePath::LowRank { rank, stats })),
+            Ok((x, stats, rank)) => {
+                eliminate(x.as_ref()).map(|(sol, _, _)| (sol, SolvePath::LowRank { rank, stats }))
+            }
             Err(why) => {
                 packed.set_diagonal(c);
                 after_low_rank(packed, rhs.clone(), why)

@@ -510,8 +510,7 @@ fn second_effect(
     let term = library_term(g, &mut rng, lo, hi);
     let e = contribution(&term, &tr.t_s, &tr.node_c, &tr.dnode_c_per_s);
     let d_unit = metric.d(prep, &e);
-    (d_unit > 0.0 && d_unit.is_finite())
-        .then(|| (scale_amplitude(&term, target / d_unit), target))
+    (d_unit > 0.0 && d_unit.is_finite()).then(|| (scale_amplitude(&term, target / d_unit), target))
 }
 
 /// The case with its recording: base bias and hidden effect on the sensor node, the noise

@@ -741,7 +741,12 @@ fn a_second_effect_is_another_mechanism_beside_the_first() {
         ..Variant::default()
     };
     let mut seen = 0;
-    let families = [Family::Warmup, Family::Aging, Family::Hysteresis, Family::ModeHop];
+    let families = [
+        Family::Warmup,
+        Family::Aging,
+        Family::Hysteresis,
+        Family::ModeHop,
+    ];
     for (id, f) in families.into_iter().enumerate() {
         let kind = Kind::Library(f);
         let one = build_case(id, kind, 7, &model).expect("case");
@@ -773,10 +778,13 @@ fn a_second_effect_is_another_mechanism_beside_the_first() {
             .map(|(d, e)| (mean(d) - mean(e)).abs())
             .fold(0.0, f64::max);
         let peak = added.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        assert!(peak > 0.0 && worst <= 0.0041, "{worst} against a peak of {peak}");
+        assert!(
+            peak > 0.0 && worst <= 0.0041,
+            "{worst} against a peak of {peak}"
+        );
     }
     assert!(seen >= 3, "{seen} of 4 cases got a second effect");
-    let sensor = build_case_in(9, Kind::Library(Family::SensorLag), 7, &model, variant)
-        .expect("case");
+    let sensor =
+        build_case_in(9, Kind::Library(Family::SensorLag), 7, &model, variant).expect("case");
     assert!(sensor.second.is_none());
 }

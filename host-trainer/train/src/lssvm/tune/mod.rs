@@ -241,9 +241,8 @@ fn score_row(
     // The folds' training matrices are principal submatrices of the whole set's: one fill
     // at σ serves every fold whose training part takes the packed path.
     let n = z.len();
-    let packed = lin.is_empty()
-        && sigma > 0.0
-        && folds.iter().any(|f| n - f.len() >= solve::MIXED_MIN_N);
+    let packed =
+        lin.is_empty() && sigma > 0.0 && folds.iter().any(|f| n - f.len() >= solve::MIXED_MIN_N);
     let full = packed.then(|| super::packed::PackedLower::gaussian(z, sigma, 1.0));
     let per_fold: Vec<Vec<Option<Vec<f64>>>> = folds
         .par_iter()
