@@ -76,6 +76,16 @@ pub struct BenchmarkDiagnoseArgs {
     /// keeps its conditions, hidden effect and D, and the report counts each artefact.
     #[arg(long)]
     pub logger: bool,
+    /// Mismatched set only: the temperature read at a 9- to 12-bit sensor's quantum (0.5,
+    /// 0.25, 0.125 or 0.0625 °C) beside each hidden effect; the report adds how often the
+    /// effect is found beside the reading's artefact.
+    #[arg(long)]
+    pub coarse_reading: bool,
+    /// Mismatched set only: on the clean recordings, a white noise level that drifts, steps
+    /// or passes through 0.5–2.5× its level in time, unrelated to temperature; the report
+    /// adds how often it is named `heteroscedastic`.
+    #[arg(long)]
+    pub noise_in_time: bool,
     /// Diagnose each recording without its first N samples (0–3600): the same records with
     /// their 100 s blocks starting N samples later, to measure how much the verdicts depend
     /// on where the blocks start. Scored against the whole recording's truth.
@@ -204,6 +214,8 @@ fn run_mismatched_set(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
         effect_elsewhere: args.effect_elsewhere,
         logger: args.logger,
         second_effect: args.two_effects,
+        coarse_reading: args.coarse_reading,
+        noise_in_time: args.noise_in_time,
     };
     opts.shift = usize::from(args.shift);
     opts.phases = usize::from(args.phases);

@@ -26,7 +26,7 @@ use crate::scan::{Scan, Scanned};
 use crate::score::{
     cycle_folds, cycle_rss, delta_bic, heldout_metrics, nonlinear_of, warmup_heldout_gain, HeldOut,
 };
-use crate::variance::VarianceTest;
+use crate::variance::{LevelInTime, VarianceTest};
 use crate::{CandidateScore, DiagnoseError, Figures, Options, StepEvidence};
 use rlg_simulate::noise::NoiseParams;
 
@@ -453,21 +453,35 @@ impl Judge<'_> {
         Ok(p_slow)
     }
 
-    /// Whether a significant noise scale goes with temperature: on a record of two or more
-    /// temperature cycles, a noise level that follows time as well and to which temperature
-    /// adds nothing is not attributed to temperature (a note in `out` says so). On one cycle
-    /// the two cannot be told apart, and the temperature's term stands.
+    /// Whether a significant noise scale goes with temperature: a noise level that a level
+    /// in time (a drift, a step, an episode) explains, and to which temperature adds nothing,
+    /// is not attributed to temperature (a note in `out` says so and where). On one
+    /// temperature cycle the level in time must also explain more than temperature does,
+    /// since there the two move together ([`VarianceTest::in_time_not_temperature`]).
     fn noise_scale_with_temperature(&self, out: &mut Judged) -> bool {
         let prep = self.base.prep;
-        let (Some(v), Some(_)) = (self.var, cycle_folds(prep)) else {
+        let Some(v) = self.var else {
             return true;
         };
-        match v.in_time_not_temperature(&prep.t_b) {
-            Some(dbic) => {
+        let several = cycle_folds(prep).is_some();
+        match v.in_time_not_temperature(&prep.t_b, several) {
+            Some((dbic, level)) => {
+                let h = |b: usize| {
+                    prep.t_b
+                        .get(b)
+                        .map_or(f64::NAN, |t| (t - prep.t_b[0]) / 3600.0)
+                };
+                let shape = match level {
+                    LevelInTime::Drift => "drifts over the record".to_string(),
+                    LevelInTime::Step { at } => format!("changes at {:.1} h", h(at)),
+                    LevelInTime::Episode { from, to } => {
+                        format!("is another from {:.1} h to {:.1} h", h(from), h(to))
+                    }
+                };
                 out.notes.push(format!(
-                    "the 1 Hz noise level changes over the record, but with time, not with \
-                     temperature (beside a quadratic in time, the temperature's adds ΔBIC \
-                     {dbic:+.1}): not attributed to heteroscedastic"
+                    "the 1 Hz noise level {shape}, with time, not with temperature (beside \
+                     that level in time, the temperature's quadratic adds ΔBIC {dbic:+.1}): \
+                     not attributed to heteroscedastic"
                 ));
                 false
             }

@@ -234,33 +234,49 @@ impl VarianceTest {
     }
 
     /// Whether the block log-scales follow time rather than temperature, on blocks at times
-    /// `time_s`: a quadratic in time explains them at least as well as the quadratic in
-    /// temperature, and the temperature's adds nothing beside it (its ΔBIC over the time
-    /// quadratic is not negative). Returns that ΔBIC where so. Asked only of records of two or
-    /// more temperature cycles: on one, temperature and time move together and cannot be told
-    /// apart.
-    pub fn in_time_not_temperature(&self, time_s: &[f64]) -> Option<f64> {
+    /// `time_s`. The level in time is the best of three shapes: a quadratic (a drift), a
+    /// step at one time (a change part way), an episode between two times (a disturbance
+    /// that ends); the times of a step or an episode are charged as parameters. On a record
+    /// of `several_cycles` (two or more temperature cycles), the noise follows time when that
+    /// level explains the log-scales at least as well as the quadratic in temperature and the
+    /// temperature's quadratic adds nothing beside it (its ΔBIC over the level in time is not
+    /// negative). On one cycle, where time and temperature move together, the level in time
+    /// must also add beside the temperature's quadratic (ΔBIC < 0): a noise level that
+    /// follows temperature is fitted by its quadratic as well as by any shape in time, and
+    /// keeps its name. Returns the temperature's ΔBIC beside the level in time, and the level,
+    /// where the noise follows time.
+    pub fn in_time_not_temperature(
+        &self,
+        time_s: &[f64],
+        several_cycles: bool,
+    ) -> Option<(f64, LevelInTime)> {
         let n = self.z.len();
         if time_s.len() != n || n < 8 {
             return None;
         }
-        let (t0, t1) = (time_s[0], time_s[n - 1]);
-        let span = (t1 - t0).max(f64::MIN_POSITIVE);
-        let s: Vec<f64> = time_s.iter().map(|t| (t - t0) / span - 0.5).collect();
-        let s2: Vec<f64> = s.iter().map(|v| v * v).collect();
         let zc = centred(&self.z);
         let rss0 = dot(&zc, &zc);
-        let time = Basis::new(&[centred(&s), centred(&s2)]);
-        let r_t = time.residual(&zc);
-        let rss_t = dot(&r_t, &r_t);
-        let mut both_cols = vec![centred(&s), centred(&s2)];
+        let level = LevelInTime::best(&zc, time_s)?;
+        let cols = level.columns(time_s);
+        let rss_t = Basis::new(&cols).residual(&zc);
+        let rss_t = dot(&rss_t, &rss_t);
+        let mut both_cols = cols;
         both_cols.extend(self.perp.q.iter().cloned());
-        let both = Basis::new(&both_cols);
-        let r_b = both.residual(&zc);
+        let r_b = Basis::new(&both_cols).residual(&zc);
         let rss_b = dot(&r_b, &r_b);
-        let dbic_time = delta_bic(n, rss0, rss0 - rss_t, 2);
-        let dbic_temp_beside = delta_bic(n, rss_t, rss_t - rss_b, 2);
-        (dbic_time <= self.dbic && dbic_temp_beside >= 0.0).then_some(dbic_temp_beside)
+        let r_temp = self.perp.residual(&zc);
+        let rss_temp = dot(&r_temp, &r_temp);
+        let k_time = level.parameters();
+        let dbic_time = delta_bic(n, rss0, rss0 - rss_t, k_time);
+        let dbic_temp_beside = delta_bic(n, rss_t, rss_t - rss_b, self.perp.q.len());
+        let dbic_time_beside = delta_bic(n, rss_temp, rss_temp - rss_b, k_time);
+        let in_time = dbic_temp_beside >= 0.0
+            && if several_cycles {
+                dbic_time <= self.dbic
+            } else {
+                dbic_time_beside < 0.0
+            };
+        in_time.then_some((dbic_temp_beside, level))
     }
 
     /// One bootstrap replicate of the statistic under constant noise: the recording's own
@@ -334,4 +350,113 @@ pub fn heldout_variance(prep: &Prepared, term: &Term) -> Option<(f64, f64)> {
 pub fn heteroscedastic_detectability(temp_c: &[f64], k: f64, ref_c: f64) -> f64 {
     let g = centred(&log_scale(temp_c, k, ref_c));
     (0.5 * dot(&g, &g)).sqrt()
+}
+
+/// A white-noise level in time, the alternative to a level in temperature
+/// ([`VarianceTest::in_time_not_temperature`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LevelInTime {
+    /// A quadratic in time.
+    Drift,
+    /// A change of level at block `at`.
+    Step {
+        /// The first block at the new level.
+        at: usize,
+    },
+    /// Another level over blocks `from..to`.
+    Episode {
+        /// The first block at the other level.
+        from: usize,
+        /// The first block back at the level of the rest.
+        to: usize,
+    },
+}
+
+/// At most this many times a step or an episode's ends are tried at.
+const LEVEL_TIMES: usize = 120;
+
+impl LevelInTime {
+    /// Parameters charged: the drift's two coefficients, a step's level and time, an
+    /// episode's level and two times.
+    fn parameters(self) -> usize {
+        match self {
+            LevelInTime::Drift | LevelInTime::Step { .. } => 2,
+            LevelInTime::Episode { .. } => 3,
+        }
+    }
+
+    /// Its centred columns on the blocks at `time_s`.
+    fn columns(self, time_s: &[f64]) -> Vec<Vec<f64>> {
+        let n = time_s.len();
+        let indicator = |a: usize, b: usize| -> Vec<Vec<f64>> {
+            let x: Vec<f64> = (0..n)
+                .map(|i| f64::from(u8::from((a..b).contains(&i))))
+                .collect();
+            vec![centred(&x)]
+        };
+        match self {
+            LevelInTime::Drift => {
+                let (t0, t1) = (time_s[0], time_s[n - 1]);
+                let span = (t1 - t0).max(f64::MIN_POSITIVE);
+                let s: Vec<f64> = time_s.iter().map(|t| (t - t0) / span - 0.5).collect();
+                let s2: Vec<f64> = s.iter().map(|v| v * v).collect();
+                vec![centred(&s), centred(&s2)]
+            }
+            LevelInTime::Step { at } => indicator(at, n),
+            LevelInTime::Episode { from, to } => indicator(from, to),
+        }
+    }
+
+    /// The shape of least ΔBIC over the centred log-scales `zc` at `time_s`. A step or an
+    /// episode is scored in closed form from prefix sums: a centred indicator of m of n
+    /// blocks has squared norm m(n − m)/n and takes (Σ of zc over its blocks)² of the sum
+    /// of squares; each lies at least 5 % of the blocks from either end and holds 5 % of them.
+    pub(crate) fn best(zc: &[f64], time_s: &[f64]) -> Option<LevelInTime> {
+        let n = zc.len();
+        let rss0 = dot(zc, zc);
+        if rss0 <= 0.0 {
+            return None;
+        }
+        let mut prefix = Vec::with_capacity(n + 1);
+        prefix.push(0.0);
+        for v in zc {
+            prefix.push(prefix.last().copied().unwrap_or(0.0) + v);
+        }
+        let edge = (n / 20).max(2);
+        if n < 2 * edge + 2 {
+            return None;
+        }
+        let stride = ((n - 2 * edge) / LEVEL_TIMES).max(1);
+        let times: Vec<usize> = (edge..=n - edge).step_by(stride).collect();
+        let score = |a: usize, b: usize, k: usize| {
+            let m = (b - a) as f64;
+            let g = m * (n as f64 - m) / n as f64;
+            let s = prefix[b] - prefix[a];
+            delta_bic(n, rss0, s * s / g, k)
+        };
+        let drift_cols = LevelInTime::Drift.columns(time_s);
+        let r = Basis::new(&drift_cols).residual(zc);
+        let mut best = (
+            delta_bic(n, rss0, rss0 - dot(&r, &r), 2),
+            LevelInTime::Drift,
+        );
+        for &at in &times {
+            let d = score(at, n, 2);
+            if d < best.0 {
+                best = (d, LevelInTime::Step { at });
+            }
+        }
+        for (i, &from) in times.iter().enumerate() {
+            for &to in &times[i + 1..] {
+                if to - from < edge {
+                    continue;
+                }
+                let d = score(from, to, 3);
+                if d < best.0 {
+                    best = (d, LevelInTime::Episode { from, to });
+                }
+            }
+        }
+        Some(best.1)
+    }
 }

@@ -19,4 +19,6 @@ mod tests;
 
 pub use counts::{output_quantum, MIN_COUNT_SIGMA};
 pub use detrend::line_variance;
-pub use hetero::{heldout_variance, heteroscedastic_detectability, log_scale, VarianceTest};
+pub use hetero::{
+    heldout_variance, heteroscedastic_detectability, log_scale, LevelInTime, VarianceTest,
+};

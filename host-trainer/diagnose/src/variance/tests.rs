@@ -453,3 +453,41 @@ fn detectability_grows_with_k() {
     let d2 = heteroscedastic_detectability(&temp, 0.02, 20.0);
     assert!(d1 > 0.0 && (d2 / d1 - 2.0).abs() < 0.05, "{d1} {d2}");
 }
+
+/// The level in time that the noise-scale test is put against takes the shape of the change:
+/// a step's time and an episode's ends within a few blocks, a smooth drift as a drift.
+#[test]
+fn a_level_in_time_finds_its_shape() {
+    let n = 300;
+    let time_s: Vec<f64> = (0..n).map(|b| 130.0 + 100.0 * b as f64).collect();
+    let mut rng = ChaCha8Rng::seed_from_u64(41);
+    let noise: Vec<f64> = (0..n)
+        .map(|_| 0.15 * Distribution::<f64>::sample(&StandardNormal, &mut rng))
+        .collect();
+    let with = |f: &dyn Fn(usize) -> f64| -> Vec<f64> {
+        centred(
+            &noise
+                .iter()
+                .enumerate()
+                .map(|(b, e)| e + f(b))
+                .collect::<Vec<_>>(),
+        )
+    };
+    let step = with(&|b| if b >= 137 { 0.6 } else { 0.0 });
+    match LevelInTime::best(&step, &time_s) {
+        Some(LevelInTime::Step { at }) => assert!(at.abs_diff(137) <= 4, "{at}"),
+        other => panic!("{other:?}"),
+    }
+    let episode = with(&|b| if (90..170).contains(&b) { -0.6 } else { 0.0 });
+    match LevelInTime::best(&episode, &time_s) {
+        Some(LevelInTime::Episode { from, to }) => {
+            assert!(
+                from.abs_diff(90) <= 4 && to.abs_diff(170) <= 4,
+                "{from}..{to}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+    let drift = with(&|b| 1.2 * (b as f64 / n as f64 - 0.5).powi(2));
+    assert_eq!(LevelInTime::best(&drift, &time_s), Some(LevelInTime::Drift));
+}

@@ -6,6 +6,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::Serialize;
 
+use super::beside::{CoarseReading, NoiseInTime};
 use super::detect::Metric;
 use super::hidden::{hetero_d, library_term, mean_effect, Hidden};
 use super::logger::Logger;
@@ -147,19 +148,25 @@ pub(super) const CONDITION_TAGS: [&str; 14] = [
 
 /// The temperature column: the sensor node (lagged for a hidden `sensor_lag`) plus the
 /// reading's white noise, rounded to 0.01 °C (to the coarse quantum of a hidden
-/// `temp_quantization`).
-pub(super) fn reading(tr: &Trajectory, c: &Conditions, hidden: &Hidden) -> Vec<f64> {
+/// `temp_quantization`, or of a `coarse` sensor).
+pub(super) fn reading(
+    tr: &Trajectory,
+    c: &Conditions,
+    hidden: &Hidden,
+    coarse: Option<CoarseReading>,
+) -> Vec<f64> {
+    let read_q = coarse.map_or(READ_QUANTUM_C, |r| r.quantum_c);
     let (src, q) = match hidden {
         Hidden::Library {
             term: t @ Term::SensorLag { .. },
         } => (
             contribution(t, &tr.t_s, &tr.node_c, &tr.dnode_c_per_s),
-            READ_QUANTUM_C,
+            read_q,
         ),
         Hidden::Library {
             term: Term::TempQuantization { step_c },
         } => (tr.node_c.clone(), *step_c),
-        _ => (tr.node_c.clone(), READ_QUANTUM_C),
+        _ => (tr.node_c.clone(), read_q),
     };
     let mut rng = ChaCha8Rng::seed_from_u64(c.seed_temp);
     src.iter()
@@ -198,6 +205,11 @@ pub struct Case {
     /// The second hidden effect ([`Variant::second_effect`]): its term at its amplitude, on
     /// the sensor's node, and its D alone (against the baseline, as the first's).
     pub second: Option<(Term, f64)>,
+    /// The reading's coarse quantum ([`Variant::coarse_reading`]; not with a hidden
+    /// `temp_quantization`, which is one).
+    pub coarse: Option<CoarseReading>,
+    /// The white noise's level changing in time ([`Variant::noise_in_time`]).
+    pub noise_in_time: Option<NoiseInTime>,
     /// Chamber and body history.
     pub trajectory: Trajectory,
     /// What the diagnosis reads.
@@ -218,10 +230,16 @@ impl Case {
             (true, true) => " on the case",
             (true, false) => " on the core",
         };
-        let logger = self
+        let mut logger = self
             .logger
             .as_ref()
             .map_or(String::new(), |l| format!("; {}", l.describe()));
+        if let Some(r) = self.coarse {
+            logger.push_str(&format!("; reading quantum {} °C", r.quantum_c));
+        }
+        if let Some(n) = self.noise_in_time {
+            logger.push_str(&format!("; {}", n.describe()));
+        }
         format!(
             "{}; {}; {tn}; {}{logger}; hidden: {}{node}",
             describe_chamber(&c.chamber),
@@ -235,9 +253,14 @@ impl Case {
     pub(super) fn tags(&self) -> Vec<String> {
         let mut t = self.conditions.tags();
         t.extend(self.logger.as_ref().map(|l| l.tag().to_string()));
+        t.extend(self.coarse.map(|_| BESIDE_TAGS[0].to_string()));
+        t.extend(self.noise_in_time.map(|_| BESIDE_TAGS[1].to_string()));
         t
     }
 }
+
+/// The conditions of [`CoarseReading`] and [`NoiseInTime`], in the report's order.
+pub(super) const BESIDE_TAGS: [&str; 2] = ["coarse reading", "noise level in time"];
 
 /// A recording of the trajectory with the given rate and temperature columns.
 pub(super) fn recording(id: usize, tr: &Trajectory, rate: Vec<f64>, temp: Vec<f64>) -> Recording {
@@ -279,6 +302,12 @@ pub struct Variant {
     /// Beside a library term of the bias, a second one of another mechanism at a D of its
     /// own ([`Case::second`]): is each found when there are two?
     pub second_effect: bool,
+    /// The temperature read through a sensor of 9 to 12 bits ([`CoarseReading`]): is the
+    /// hidden effect found beside the reading's artefact?
+    pub coarse_reading: bool,
+    /// On the clean cases, a white-noise level that changes in time, not with temperature
+    /// ([`NoiseInTime`]): is it told from `heteroscedastic`?
+    pub noise_in_time: bool,
 }
 
 /// What a hidden effect is driven by: the sensor's node, or with `elsewhere` the body's
@@ -307,6 +336,16 @@ pub fn build_case_in(
     variant: Variant,
 ) -> Result<Case, BenchError> {
     let mut case = draw_case(id, kind, seed, model, variant)?;
+    if variant.noise_in_time && kind == Kind::Clean {
+        let change = NoiseInTime::draw(seed, id);
+        let c = &case.conditions;
+        let tr = &case.trajectory;
+        let scale = change.scale(&tr.t_s);
+        case.recording.rate_dph =
+            c.noise
+                .generate(&base_bias(c, tr), Some(&scale), DT_S, c.seed_noise);
+        case.noise_in_time = Some(change);
+    }
     if variant.logger {
         let logger = Logger::draw(seed, id, case.conditions.chamber.duration_s);
         logger.apply(&mut case.recording, seed, id);
@@ -361,12 +400,20 @@ fn draw_case(
             },
             Kind::RateSquared => Hidden::RateSquared { coeff: sign },
         };
-        let read = reading(&tr, &c, &unit);
+        let coarse = match &unit {
+            Hidden::Library {
+                term: Term::TempQuantization { .. },
+            } => None,
+            _ => variant
+                .coarse_reading
+                .then(|| CoarseReading::draw(seed, id)),
+        };
+        let read = reading(&tr, &c, &unit, coarse);
         if kind == Kind::Clean {
             let stats = (0.0, 0.0, 0.0);
-            return Ok(assemble(
-                id, kind, c, unit, 0.0, 0.0, stats, tr, read, false,
-            ));
+            let mut case = assemble(id, kind, c, unit, 0.0, 0.0, stats, tr, read, false);
+            case.coarse = coarse;
+            return Ok(case);
         }
         let prep = prepare(recording(id, &tr, vec![0.0; tr.t_s.len()], read.clone()))?;
         let Some(metric) = Metric::new(&prep, model, &c.noise)? else {
@@ -393,7 +440,9 @@ fn draw_case(
                 let h = unit.scaled(k);
                 let d = hetero_d(&h, &tr, &prep, &c.noise).unwrap_or(f64::NAN);
                 let stats = (d, 0.0, c.noise.white_sigma(DT_S) * k * xmax / s1);
-                return Ok(assemble(id, kind, c, h, target, d, stats, tr, read, false));
+                let mut case = assemble(id, kind, c, h, target, d, stats, tr, read, false);
+                case.coarse = coarse;
+                return Ok(case);
             }
             Hidden::Library {
                 term: Term::SensorLag { .. } | Term::TempQuantization { .. },
@@ -415,7 +464,7 @@ fn draw_case(
                 let ok = levels.iter().all(|s| (0.1..=5.0).contains(&(s * k)));
                 c.noise = c.noise.scaled(k);
                 let stats = (marg / k, span, peak / (s1 * k));
-                let case = assemble(
+                let mut case = assemble(
                     id,
                     kind,
                     c,
@@ -427,6 +476,7 @@ fn draw_case(
                     read,
                     false,
                 );
+                case.coarse = coarse;
                 if ok {
                     return Ok(case);
                 }
@@ -468,6 +518,7 @@ fn draw_case(
             variant.effect_elsewhere,
         );
         case.second = second;
+        case.coarse = coarse;
         return Ok(case);
     }
     fallback.ok_or_else(|| BenchError::Truth {
@@ -513,6 +564,17 @@ fn second_effect(
     (d_unit > 0.0 && d_unit.is_finite()).then(|| (scale_amplitude(&term, target / d_unit), target))
 }
 
+/// The base bias on the sensor's node (Earth rate and Eq. (11)'s terms; with two effects,
+/// the second's term), °/h per sample.
+fn base_bias(c: &Conditions, tr: &Trajectory) -> Vec<f64> {
+    let mut out = vec![0.0; tr.t_s.len()];
+    for b in &c.bias {
+        let v = contribution(b, &tr.t_s, &tr.node_c, &tr.dnode_c_per_s);
+        out.iter_mut().zip(&v).for_each(|(o, x)| *o += x);
+    }
+    out
+}
+
 /// The case with its recording: base bias and hidden effect on the sensor node, the noise
 /// (its white part scaled by a hidden `heteroscedastic`), the reading.
 #[allow(clippy::too_many_arguments)]
@@ -532,10 +594,10 @@ fn assemble(
     let effect_elsewhere = matches!(drive, Cow::Owned(_));
     let mut clean = hidden.bias_effect(&drive);
     drop(drive);
-    for b in &c.bias {
-        let v = contribution(b, &tr.t_s, &tr.node_c, &tr.dnode_c_per_s);
-        clean.iter_mut().zip(&v).for_each(|(o, x)| *o += x);
-    }
+    clean
+        .iter_mut()
+        .zip(base_bias(&c, &tr))
+        .for_each(|(o, x)| *o += x);
     let scale = match &hidden {
         Hidden::Library {
             term: t @ Term::Heteroscedastic { .. },
@@ -559,6 +621,8 @@ fn assemble(
         effect_elsewhere,
         logger: None,
         second: None,
+        coarse: None,
+        noise_in_time: None,
         trajectory: tr,
         recording,
     }

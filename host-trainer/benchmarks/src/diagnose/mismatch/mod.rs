@@ -63,6 +63,13 @@
 //!   stamps in ms from a clock ±50 ppm off with 2–50 ms of jitter, or 2–10 temperature
 //!   readings at a digital sensor's error values (85 °C, −127 °C). None is gyro physics; the
 //!   right verdict is the twin's. D is the record's before the artefact.
+//! - **A coarse reading** (`--coarse-reading`, `beside.rs`): the temperature read at the
+//!   quantum of a 9- to 12-bit sensor (0.5, 0.25, 0.125 or 0.0625 °C) beside the hidden
+//!   effect, its D taken on that reading. The reading's quantum is an artefact; the hidden
+//!   effect should still be found, at any rank beside a `temp_quantization` finding.
+//! - **A noise level in time** (`--noise-in-time`, `beside.rs`): on the clean cases, the
+//!   white noise's σ drifting to, stepping to or passing through 0.5…2.5× its level over
+//!   the run, unrelated to temperature. It is not `heteroscedastic`.
 //!
 //! D is the matched set's (see the parent module's doc): D² = ēᵀ(Σ⁻¹ −
 //! Σ⁻¹X(XᵀΣ⁻¹X)⁻¹XᵀΣ⁻¹)ē, ē the effect's means on the diagnosis' 100 s blocks, X its baseline
@@ -78,6 +85,7 @@
 //! α, per condition; top-1 accuracy by D; outside-library effects named as a library
 //! mechanism. See [`mismatch_report_markdown`].
 
+mod beside;
 mod detect;
 mod gen;
 mod hidden;
@@ -90,6 +98,7 @@ mod shapes;
 mod tests;
 mod thermal;
 
+pub use beside::{CoarseReading, NoiseInTime, TimeForm};
 pub use gen::{build_case, build_case_in, Case, Conditions, Variant};
 pub use hidden::Hidden;
 pub use logger::Logger;
@@ -253,6 +262,56 @@ pub struct MismatchResult {
     /// With a second hidden effect ([`Variant::second_effect`]): which of the two were found.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub two: Option<TwoFound>,
+    /// With a coarse reading ([`Variant::coarse_reading`]): what was found beside it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub coarse: Option<CoarseFound>,
+    /// With a noise level in time ([`Variant::noise_in_time`]): the change, and whether
+    /// some finding is `heteroscedastic`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub noise_in_time: Option<(NoiseInTime, bool)>,
+}
+
+/// What was found on a case read at a coarse quantum.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CoarseFound {
+    /// The reading's quantum, °C.
+    pub quantum_c: f64,
+    /// The hidden effect's D (0 for a clean case).
+    pub d: f64,
+    /// Some finding names the hidden effect's mechanism (whatever its rank).
+    pub effect_found: bool,
+    /// The first finding names it.
+    pub effect_first: bool,
+    /// Some finding is `temp_quantization`.
+    pub artefact_named: bool,
+    /// Some finding names a mechanism that is neither the hidden one nor the reading's
+    /// quantum.
+    pub other_named: bool,
+}
+
+impl CoarseFound {
+    /// The outcome on `case`'s diagnosis `d` (`None` without a coarse reading).
+    fn of(case: &Case, d: &rlg_diagnose::Diagnosis) -> Option<CoarseFound> {
+        let r = case.coarse?;
+        let hidden = match &case.hidden {
+            Hidden::Library { term } => Some(term.mechanism()),
+            Hidden::Shaped { shape } => Some(shape.family().mechanism()),
+            _ => None,
+        };
+        let quantum = Family::TempQuantization.mechanism();
+        Some(CoarseFound {
+            quantum_c: r.quantum_c,
+            d: case.d,
+            effect_found: hidden.is_some_and(|m| d.findings.iter().any(|f| f.mechanism == m)),
+            effect_first: hidden
+                .is_some_and(|m| d.findings.first().is_some_and(|f| f.mechanism == m)),
+            artefact_named: d.findings.iter().any(|f| f.mechanism == quantum),
+            other_named: d
+                .findings
+                .iter()
+                .any(|f| f.mechanism != quantum && Some(f.mechanism) != hidden),
+        })
+    }
 }
 
 /// Which effects of a case with two were found: each counts when some finding names its
@@ -298,6 +357,10 @@ struct TruthFile<'a> {
     logger: Option<&'a Logger>,
     #[serde(skip_serializing_if = "Option::is_none")]
     second: Option<&'a (rlg_physics::Term, f64)>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    coarse: Option<CoarseReading>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    noise_in_time: Option<NoiseInTime>,
 }
 
 /// Runs the mismatched set, writing each recording to `out_dir` (deleted after scoring
@@ -328,6 +391,8 @@ pub fn run_mismatched(
                 conditions: &case.conditions,
                 logger: case.logger.as_ref(),
                 second: case.second.as_ref(),
+                coarse: case.coarse,
+                noise_in_time: case.noise_in_time,
             };
             let json = serde_json::to_vec_pretty(&tf).map_err(|e| BenchError::Truth {
                 path: truth.display().to_string(),
@@ -361,6 +426,11 @@ pub fn run_mismatched(
                     r
                 },
                 two: TwoFound::of(&case, &d),
+                coarse: CoarseFound::of(&case, &d),
+                noise_in_time: case.noise_in_time.map(|n| {
+                    let hetero = Family::Heteroscedastic.mechanism();
+                    (n, d.findings.iter().any(|f| f.mechanism == hetero))
+                }),
             })
         })
         .collect()

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use plotters::prelude::*;
 
-use super::gen::CONDITION_TAGS;
+use super::gen::{BESIDE_TAGS, CONDITION_TAGS};
 use super::logger::LOGGER_TAGS;
 use super::{Kind, MismatchResult};
 use crate::diagnose::report::pct;
@@ -71,6 +71,8 @@ pub fn mismatch_report_markdown(results: &[MismatchResult]) -> String {
     }
     summary(&mut o, results, &clean, ra);
     two_effects_table(&mut o, results);
+    coarse_table(&mut o, results);
+    noise_in_time_table(&mut o, results);
     forms_table(&mut o, results);
     o.push_str(&calibration_markdown(&clean));
     conditions_table(&mut o, results, ra);
@@ -102,6 +104,104 @@ fn two_effects_table(o: &mut String, results: &[MismatchResult]) {
             pct(n(&|t| t.first.1), set.len()),
             pct(n(&|t| t.second.1), set.len()),
             pct(n(&|t| t.first.1 && t.second.1), set.len())
+        );
+    }
+    o.push('\n');
+}
+
+/// With a coarse reading (`--coarse-reading`): the hidden effect found beside the reading's
+/// artefact, by D.
+fn coarse_table(o: &mut String, results: &[MismatchResult]) {
+    let all: Vec<&super::CoarseFound> = results.iter().filter_map(|r| r.coarse.as_ref()).collect();
+    if all.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        o,
+        "\nThe temperature read at a sensor's coarse quantum (0.0625–0.5 °C) beside the hidden \
+         effect: the effect counts as found when some finding names its mechanism; the \
+         quantum is named when some finding is `temp_quantization`.\n\n\
+         | cases | effect found | effect first | quantum named | another mechanism named |\n\
+         |---|---|---|---|---|"
+    );
+    let bands: [(&str, f64, f64); 3] = [
+        ("D ≥ 6", 6.0, f64::INFINITY),
+        ("D 3–6", 3.0, 6.0),
+        ("clean", 0.0, 0.0),
+    ];
+    for (name, lo, hi) in bands {
+        let set: Vec<&&super::CoarseFound> = all
+            .iter()
+            .filter(|c| {
+                if hi > 0.0 {
+                    c.d >= lo && c.d < hi
+                } else {
+                    c.d == 0.0
+                }
+            })
+            .collect();
+        if set.is_empty() {
+            continue;
+        }
+        let n = |f: &dyn Fn(&super::CoarseFound) -> bool| set.iter().filter(|c| f(c)).count();
+        let effect = |f: &dyn Fn(&super::CoarseFound) -> bool| {
+            if hi > 0.0 {
+                pct(n(f), set.len())
+            } else {
+                "–".to_string()
+            }
+        };
+        let _ = writeln!(
+            o,
+            "| {name} | {} | {} | {} | {} |",
+            effect(&|c| c.effect_found),
+            effect(&|c| c.effect_first),
+            pct(n(&|c| c.artefact_named), set.len()),
+            pct(n(&|c| c.other_named), set.len())
+        );
+    }
+    o.push('\n');
+}
+
+/// With a noise level in time on the clean cases (`--noise-in-time`): how often it is taken
+/// for a noise level in temperature, by the change's form.
+fn noise_in_time_table(o: &mut String, results: &[MismatchResult]) {
+    let all: Vec<&MismatchResult> = results
+        .iter()
+        .filter(|r| r.noise_in_time.is_some())
+        .collect();
+    if all.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        o,
+        "\nClean recordings whose white noise level changes in time, not with temperature:\n\n\
+         | form | recordings | `heteroscedastic` named | any verdict but consistent |\n\
+         |---|---|---|---|"
+    );
+    for form in [
+        super::TimeForm::Drift,
+        super::TimeForm::Step,
+        super::TimeForm::Episode,
+    ] {
+        let set: Vec<&&MismatchResult> = all
+            .iter()
+            .filter(|r| r.noise_in_time.as_ref().is_some_and(|n| n.0.form == form))
+            .collect();
+        let hetero = set
+            .iter()
+            .filter(|r| r.noise_in_time.as_ref().is_some_and(|n| n.1))
+            .count();
+        let flagged = set
+            .iter()
+            .filter(|r| r.result.predicted != Label::None)
+            .count();
+        let _ = writeln!(
+            o,
+            "| {form:?} | {} | {} | {} |",
+            set.len(),
+            pct(hetero, set.len()),
+            pct(flagged, set.len())
         );
     }
     o.push('\n');
@@ -234,12 +334,16 @@ fn conditions_table(o: &mut String, results: &[MismatchResult], ra: f64) {
             format!("{} of {} ({nm})", at(ra), set.len())
         }
     };
-    for tag in CONDITION_TAGS.iter().chain(&LOGGER_TAGS) {
+    for tag in CONDITION_TAGS
+        .iter()
+        .chain(&LOGGER_TAGS)
+        .chain(&BESIDE_TAGS)
+    {
         let (with, without): (Vec<&&MismatchResult>, Vec<&&MismatchResult>) = clean_mm
             .iter()
             .partition(|r| r.conditions.iter().any(|c| c == tag));
-        // The logger's rows only where `--logger` put its artefacts.
-        if with.is_empty() && LOGGER_TAGS.contains(tag) {
+        // The variants' rows only where they put their conditions.
+        if with.is_empty() && !CONDITION_TAGS.contains(tag) {
             continue;
         }
         let _ = writeln!(o, "| {tag} | {} | {} |", cell(&with), cell(&without));

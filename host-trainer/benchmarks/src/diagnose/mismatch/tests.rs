@@ -324,6 +324,8 @@ fn made_up(id: usize, kind: Kind, truth: Label, predicted: Label, p: f64) -> Mis
         conditions: vec!["angle quantisation".into()],
         form: None,
         two: None,
+        coarse: None,
+        noise_in_time: None,
         result: CaseResult {
             id,
             profile: String::new(),
@@ -787,4 +789,83 @@ fn a_second_effect_is_another_mechanism_beside_the_first() {
     let sensor =
         build_case_in(9, Kind::Library(Family::SensorLag), 7, &model, variant).expect("case");
     assert!(sensor.second.is_none());
+}
+
+/// A coarse reading keeps the case's draw and rounds the reading to a 9- to 12-bit sensor's
+/// quantum (the bias is the twin's: the rate moves only through the noise's share of the
+/// changed amplitude, so the hidden term and its family are the twin's); a hidden
+/// `temp_quantization` keeps its own quantum. A noise level in time leaves a clean case's
+/// bias, reading and slow noise alone and multiplies its white noise as drawn.
+#[test]
+fn coarse_readings_and_noise_in_time_keep_the_twin() {
+    let model = PhysicsModel::paper();
+    let coarse = Variant {
+        coarse_reading: true,
+        ..Variant::default()
+    };
+    let mut quanta = Vec::new();
+    for (id, f) in [
+        (0, Family::Aging),
+        (1, Family::Hysteresis),
+        (2, Family::Warmup),
+    ] {
+        let kind = Kind::Library(f);
+        let one = build_case(id, kind, 5, &model).expect("case");
+        let two = build_case_in(id, kind, 5, &model, coarse).expect("case");
+        assert_eq!(one.conditions, two.conditions, "{}", f.name());
+        assert_eq!(one.hidden.label(), two.hidden.label());
+        let q = two.coarse.expect("a coarse reading").quantum_c;
+        assert!([0.0625, 0.125, 0.25, 0.5].contains(&q), "{q}");
+        for (t, t1) in two.recording.temp_c.iter().zip(&one.recording.temp_c) {
+            let k = t / q;
+            assert!((k - k.round()).abs() < 1e-9, "{t} is not a multiple of {q}");
+            assert!(
+                (t - t1).abs() <= q / 2.0 + 0.02,
+                "{t} against the twin's {t1}"
+            );
+        }
+        quanta.push(q);
+    }
+    let tq = build_case_in(
+        3,
+        Kind::Library(Family::TempQuantization),
+        5,
+        &model,
+        coarse,
+    )
+    .expect("case");
+    assert!(tq.coarse.is_none());
+
+    let in_time = Variant {
+        noise_in_time: true,
+        ..Variant::default()
+    };
+    let mut forms = std::collections::BTreeSet::new();
+    for id in 0..12 {
+        let one = build_case(id, Kind::Clean, 5, &model).expect("case");
+        let two = build_case_in(id, Kind::Clean, 5, &model, in_time).expect("case");
+        let change = two.noise_in_time.expect("a change in time");
+        forms.insert(format!("{:?}", change.form));
+        assert_eq!(one.conditions, two.conditions);
+        assert_eq!(one.recording.temp_c, two.recording.temp_c);
+        // Without angle quantisation the white part adds: the difference is the white
+        // noise times (scale − 1), zero where the scale is 1.
+        if one.conditions.noise.quantum_arcsec == 0.0 {
+            let scale = change.scale(&two.recording.time_s);
+            let at_one = scale
+                .iter()
+                .zip(&one.recording.rate_dph)
+                .zip(&two.recording.rate_dph);
+            for ((s, a), b) in at_one {
+                if *s == 1.0 {
+                    assert!((a - b).abs() < 1e-9, "{a} against {b}");
+                }
+            }
+            assert_ne!(one.recording.rate_dph, two.recording.rate_dph);
+        }
+        let lib =
+            build_case_in(id, Kind::Library(Family::Aging), 5, &model, in_time).expect("case");
+        assert!(lib.noise_in_time.is_none(), "only clean cases");
+    }
+    assert_eq!(forms.len(), 3, "{forms:?}");
 }
