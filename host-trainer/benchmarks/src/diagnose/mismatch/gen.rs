@@ -354,6 +354,38 @@ pub fn build_case_in(
     Ok(case)
 }
 
+/// The hidden effect of one draw, at unit amplitude; `(lo, hi)` is the node's 5–95 % range.
+fn draw_hidden(
+    kind: Kind,
+    other_shapes: bool,
+    rng: &mut ChaCha8Rng,
+    duration_s: f64,
+    (lo, hi): (f64, f64),
+) -> Hidden {
+    let sign = if uni(rng, 0.0, 1.0) < 0.5 { -1.0 } else { 1.0 };
+    match kind {
+        Kind::Clean => Hidden::None,
+        Kind::Library(f) => {
+            // The form is drawn from a copy of the stream, so that the stream goes on
+            // as the library twin's does (its retries included).
+            let mut alt = rng.clone();
+            let term = library_term(f, rng, lo, hi);
+            match other_shapes
+                .then(|| Shape::draw(f, &mut alt, lo, hi))
+                .flatten()
+            {
+                Some(shape) => Hidden::Shaped { shape },
+                None => Hidden::Library { term },
+            }
+        }
+        Kind::Step => Hidden::Step {
+            time_s: (duration_s * uni(rng, 0.2, 0.8)).round(),
+            step_dph: sign,
+        },
+        Kind::RateSquared => Hidden::RateSquared { coeff: sign },
+    }
+}
+
 /// [`build_case_in`] up to the recording as the gyro and its sensor make it.
 fn draw_case(
     id: usize,
@@ -374,32 +406,7 @@ fn draw_case(
         sorted.sort_by(f64::total_cmp);
         let q = |p: f64| sorted[((p * (sorted.len() - 1) as f64).round()) as usize];
         let (lo, hi) = (q(0.05), q(0.95));
-        let sign = if uni(&mut rng, 0.0, 1.0) < 0.5 {
-            -1.0
-        } else {
-            1.0
-        };
-        let unit = match kind {
-            Kind::Clean => Hidden::None,
-            Kind::Library(f) => {
-                // The form is drawn from a copy of the stream, so that the stream goes on
-                // as the library twin's does (its retries included).
-                let mut alt = rng.clone();
-                let term = library_term(f, &mut rng, lo, hi);
-                match other_shapes
-                    .then(|| Shape::draw(f, &mut alt, lo, hi))
-                    .flatten()
-                {
-                    Some(shape) => Hidden::Shaped { shape },
-                    None => Hidden::Library { term },
-                }
-            }
-            Kind::Step => Hidden::Step {
-                time_s: (c.chamber.duration_s * uni(&mut rng, 0.2, 0.8)).round(),
-                step_dph: sign,
-            },
-            Kind::RateSquared => Hidden::RateSquared { coeff: sign },
-        };
+        let unit = draw_hidden(kind, other_shapes, &mut rng, c.chamber.duration_s, (lo, hi));
         let coarse = match &unit {
             Hidden::Library {
                 term: Term::TempQuantization { .. },
