@@ -258,8 +258,8 @@ impl VarianceTest {
         let rss0 = dot(&zc, &zc);
         let level = LevelInTime::best(&zc, time_s)?;
         let cols = level.columns(time_s);
-        let rss_t = Basis::new(&cols).residual(&zc);
-        let rss_t = dot(&rss_t, &rss_t);
+        let r_t = Basis::new(&cols).residual(&zc);
+        let rss_t = dot(&r_t, &r_t);
         let mut both_cols = cols;
         both_cols.extend(self.perp.q.iter().cloned());
         let r_b = Basis::new(&both_cols).residual(&zc);
