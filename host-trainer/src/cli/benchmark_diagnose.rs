@@ -241,7 +241,9 @@ fn run_mismatched_set(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
         &md,
         args.results_md.as_deref().map(|p| (p, header.as_str())),
     )?;
-    calibration_png(&results, &args.out.join("calibration.png"))?;
+    if results.iter().any(|r| r.kind == Kind::Clean) {
+        calibration_png(&results, &args.out.join("calibration.png"))?;
+    }
     println!("{md}");
     eprintln!(
         "{} recordings in {:.1} s",

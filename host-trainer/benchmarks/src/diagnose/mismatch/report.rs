@@ -74,8 +74,16 @@ pub fn mismatch_report_markdown(results: &[MismatchResult]) -> String {
     coarse_table(&mut o, results);
     noise_in_time_table(&mut o, results);
     forms_table(&mut o, results);
-    o.push_str(&calibration_markdown(&clean));
-    conditions_table(&mut o, results, ra);
+    // A run of hidden effects only (`--only` without `none`) has no false alarms to count.
+    if clean.is_empty() {
+        o.push_str(
+            "\nNo clean recordings in this run: the false alarms and the p-values' calibration \
+             are measured on runs that include them.\n",
+        );
+    } else {
+        o.push_str(&calibration_markdown(&clean));
+        conditions_table(&mut o, results, ra);
+    }
     confusion_matrix(&mut o, results);
     o
 }
@@ -217,20 +225,26 @@ fn summary(o: &mut String, results: &[MismatchResult], clean: &[&CaseResult], ra
         .collect();
     let outside: Vec<&MismatchResult> = results.iter().filter(|r| r.kind.outside()).collect();
     let _ = writeln!(o, "| measure | result |\n|---|---|");
+    // A row whose cases this run does not hold (`--only`, a variant) is left out.
+    let mut row = |name: &str, k: usize, n: usize| {
+        if n > 0 {
+            let _ = writeln!(o, "| {name} | {} |", pct(k, n));
+        }
+    };
     let fa = flagged(clean, ra);
     let named = clean
         .iter()
         .filter(|r| matches!(r.predicted, Label::Mechanism(_)))
         .count();
-    let _ = writeln!(
-        o,
-        "| false alarms on clean recordings (any verdict but consistent) | {} |",
-        pct(fa, clean.len())
+    row(
+        "false alarms on clean recordings (any verdict but consistent)",
+        fa,
+        clean.len(),
     );
-    let _ = writeln!(
-        o,
-        "| false alarms naming a library mechanism | {} |",
-        pct(named, clean.len())
+    row(
+        "false alarms naming a library mechanism",
+        named,
+        clean.len(),
     );
     for (name, lo, hi) in [
         ("top-1, library families, D 3–5", 3.0, 5.0),
@@ -242,7 +256,7 @@ fn summary(o: &mut String, results: &[MismatchResult], clean: &[&CaseResult], ra
             .filter(|r| r.detectability >= lo && r.detectability < hi)
             .collect();
         let ok = set.iter().filter(|r| r.predicted == r.truth).count();
-        let _ = writeln!(o, "| {name} | {} |", pct(ok, set.len()));
+        row(name, ok, set.len());
     }
     // (A mechanism hidden in another form has no parameter to score: not counted.)
     let correct: Vec<&&CaseResult> = library
@@ -250,10 +264,10 @@ fn summary(o: &mut String, results: &[MismatchResult], clean: &[&CaseResult], ra
         .filter(|r| r.predicted == r.truth && r.param_ok.is_some())
         .collect();
     let pok = correct.iter().filter(|r| r.param_ok == Some(true)).count();
-    let _ = writeln!(
-        o,
-        "| key parameter within tolerance (of correct identifications) | {} |",
-        pct(pok, correct.len())
+    row(
+        "key parameter within tolerance (of correct identifications)",
+        pok,
+        correct.len(),
     );
     // All of them, then at D ≥ 6 (where the diagnosis' targets are set).
     for (range, at) in [("", 0.0), (" at D ≥ 6", 6.0)] {
@@ -269,15 +283,15 @@ fn summary(o: &mut String, results: &[MismatchResult], clean: &[&CaseResult], ra
             .iter()
             .filter(|r| r.result.predicted == Label::Unexplained)
             .count();
-        let _ = writeln!(
-            o,
-            "| outside-library effects{range} named as a library mechanism | {} |",
-            pct(named, set.len())
+        row(
+            &format!("outside-library effects{range} named as a library mechanism"),
+            named,
+            set.len(),
         );
-        let _ = writeln!(
-            o,
-            "| outside-library effects{range} called `unexplained` | {} |",
-            pct(unexp, set.len())
+        row(
+            &format!("outside-library effects{range} called `unexplained`"),
+            unexp,
+            set.len(),
         );
     }
     let hidden: Vec<&CaseResult> = results
@@ -286,10 +300,10 @@ fn summary(o: &mut String, results: &[MismatchResult], clean: &[&CaseResult], ra
         .map(|r| &r.result)
         .collect();
     let conc = hidden.iter().filter(|r| r.peak_over_sigma1 < 0.5).count();
-    let _ = writeln!(
-        o,
-        "| hidden effects concealed (peak < σ₁/2; not required here) | {} |",
-        pct(conc, hidden.len())
+    row(
+        "hidden effects concealed (peak < σ₁/2; not required here)",
+        conc,
+        hidden.len(),
     );
     let mut secs: Vec<f64> = results.iter().map(|r| r.result.seconds).collect();
     secs.sort_by(f64::total_cmp);

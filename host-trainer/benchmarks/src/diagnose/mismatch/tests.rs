@@ -382,7 +382,6 @@ fn report_and_figure() {
         "false alarms on clean recordings",
         "top-1, library families, D 3–5",
         "outside-library effects named as a library mechanism",
-        "outside-library effects at D ≥ 6 called `unexplained`",
         "| 5 % | 50 % (1/2)",
         "| angle quantisation | 1 / 0 of 2 (0) |",
         "| hidden effects concealed",
@@ -390,11 +389,39 @@ fn report_and_figure() {
     ] {
         assert!(md.contains(needle), "missing `{needle}` in\n{md}");
     }
+    // Every case is at D = 4: no row for the outside effects at D ≥ 6, rather than a "–".
+    assert!(!md.contains("at D ≥ 6 called"), "{md}");
+    assert!(!md.contains("| – |"), "{md}");
     let dir = tempfile::tempdir().expect("temp dir");
     let png = dir.path().join("calibration.png");
     calibration_png(&results, &png).expect("draws");
     let b = std::fs::read(&png).expect("reads");
     assert_eq!(&b[..8], b"\x89PNG\r\n\x1a\n");
+}
+
+/// A run of hidden effects only (`--only` without `none`) says it measured no false alarms
+/// instead of printing an empty calibration and "0 of 0" for every condition.
+#[test]
+fn report_without_clean_recordings_leaves_out_their_sections() {
+    let results: Vec<MismatchResult> = made_up_run()
+        .into_iter()
+        .filter(|r| r.kind != Kind::Clean)
+        .collect();
+    let md = mismatch_report_markdown(&results);
+    assert!(md.contains("No clean recordings in this run"), "{md}");
+    for gone in [
+        "Calibration on the",
+        "False alarms by condition",
+        "false alarms on clean recordings",
+        "0 of 0",
+    ] {
+        assert!(!md.contains(gone), "`{gone}` in\n{md}");
+    }
+    assert!(
+        md.contains("top-1, library families, D 3–5 | 0 % (0/1)"),
+        "{md}"
+    );
+    assert!(md.contains("| step |"), "{md}");
 }
 
 /// `clean_results` reads the clean cases of either set's `results.json` (a mismatched run's
