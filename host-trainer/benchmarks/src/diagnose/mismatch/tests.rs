@@ -424,6 +424,23 @@ fn report_without_clean_recordings_leaves_out_their_sections() {
     assert!(md.contains("| step |"), "{md}");
 }
 
+/// With two effects hidden, the top-1 row says it scores the first effect only.
+#[test]
+fn two_effect_runs_say_whose_top_1_it_is() {
+    let mut results = made_up_run();
+    results[3].two = Some(super::TwoFound {
+        first: (4.0, false),
+        second: (4.0, true),
+        second_mechanism: "hysteresis".into(),
+    });
+    let md = mismatch_report_markdown(&results);
+    assert!(
+        md.contains("| top-1 is the first of two effects, library families, D 3–5 | 0 % (0/1) |"),
+        "{md}"
+    );
+    assert!(!md.contains("| top-1, library"), "{md}");
+}
+
 /// `clean_results` reads the clean cases of either set's `results.json` (a mismatched run's
 /// entries by their kind, a matched run's results by their truth), and their calibration
 /// pools: one of the two clean cases of each run is flagged at 5 %.
