@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 
 use clap::ValueEnum;
 use rlg_benchmarks::diagnose::mismatch::{
-    calibration_png, calibration_png_of, mismatch_report_markdown, run_mismatched, Kind,
-    MismatchOptions, Variant,
+    calibration_png, calibration_png_of, detection_png, mismatch_report_markdown, run_mismatched,
+    Kind, MismatchOptions, Variant,
 };
 use rlg_benchmarks::diagnose::{report_markdown, run_benchmark, BenchOptions, CaseResult, Label};
 
@@ -34,7 +34,7 @@ pub struct BenchmarkDiagnoseArgs {
     #[arg(long, value_name = "FILE")]
     pub results_md: Option<PathBuf>,
     /// Which recordings: the simulator's (`matched`) or the independent generator's
-    /// (`mismatched`; also writes `calibration.png`).
+    /// (`mismatched`; also writes `calibration.png` and the detection curve `detection.png`).
     #[arg(long, value_enum, default_value_t = Set::Matched)]
     pub set: Set,
     /// A few recordings per term: 2 instead of 20 (mismatched: 12) per term, 8 instead of
@@ -243,6 +243,9 @@ fn run_mismatched_set(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
     )?;
     if results.iter().any(|r| r.kind == Kind::Clean) {
         calibration_png(&results, &args.out.join("calibration.png"))?;
+    }
+    if results.iter().any(|r| r.kind != Kind::Clean) {
+        detection_png(&results, "mismatched", &args.out.join("detection.png"))?;
     }
     println!("{md}");
     eprintln!(

@@ -86,6 +86,7 @@
 //! mechanism. See [`mismatch_report_markdown`].
 
 mod beside;
+mod curve;
 mod detect;
 mod gen;
 mod hidden;
@@ -99,6 +100,7 @@ mod tests;
 mod thermal;
 
 pub use beside::{CoarseReading, NoiseInTime, TimeForm};
+pub use curve::detection_png;
 pub use gen::{build_case, build_case_in, Case, Conditions, Variant};
 pub use hidden::Hidden;
 pub use logger::Logger;

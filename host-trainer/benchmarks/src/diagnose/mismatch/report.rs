@@ -16,7 +16,7 @@ use rlg_diagnose::candidates::Family;
 const CAL_ALPHAS: [f64; 4] = [0.01, 0.02, 0.05, 0.10];
 
 /// 95 % Wilson interval of a share k/n.
-fn wilson(k: usize, n: usize) -> (f64, f64) {
+pub(super) fn wilson(k: usize, n: usize) -> (f64, f64) {
     if n == 0 {
         return (0.0, 1.0);
     }
@@ -74,6 +74,7 @@ pub fn mismatch_report_markdown(results: &[MismatchResult]) -> String {
     coarse_table(&mut o, results);
     noise_in_time_table(&mut o, results);
     forms_table(&mut o, results);
+    super::curve::curve_table(&mut o, results);
     // A run of hidden effects only (`--only` without `none`) has no false alarms to count.
     if clean.is_empty() {
         o.push_str(

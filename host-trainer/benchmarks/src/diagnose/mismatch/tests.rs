@@ -399,6 +399,113 @@ fn report_and_figure() {
     assert_eq!(&b[..8], b"\x89PNG\r\n\x1a\n");
 }
 
+/// The detection curve counts each bin of D: named first, found at all (a wrong name is
+/// found, a `consistent` is not), outside-library effects called `unexplained`; the figure
+/// is a PNG.
+#[test]
+fn detection_curve_counts_each_bin() {
+    let aging = || Label::Mechanism(Family::Aging.mechanism());
+    let hop = Label::Mechanism(Family::ModeHop.mechanism());
+    let lib = Kind::Library(Family::Aging);
+    let at = |mut r: MismatchResult, d: f64| {
+        r.result.detectability = d;
+        r
+    };
+    let results = vec![
+        made_up(0, Kind::Clean, Label::None, Label::None, 0.5),
+        at(made_up(1, lib, aging(), aging(), 0.01), 6.5),
+        at(made_up(2, lib, aging(), hop, 0.01), 7.0),
+        at(made_up(3, lib, aging(), Label::None, 0.3), 7.5),
+        at(made_up(4, lib, aging(), aging(), 0.01), 3.5),
+        at(
+            made_up(5, Kind::Step, Label::Unexplained, Label::Unexplained, 0.0),
+            7.0,
+        ),
+        at(
+            made_up(6, Kind::Step, Label::Unexplained, Label::None, 0.5),
+            6.2,
+        ),
+    ];
+    let b = super::curve::bins(&results);
+    assert_eq!(b.len(), 2, "{b:?}");
+    assert_eq!(
+        (
+            b[0].lo,
+            b[0].library,
+            b[0].top1,
+            b[0].detected,
+            b[0].outside
+        ),
+        (3.0, 1, 1, 1, 0)
+    );
+    assert_eq!(
+        (b[1].lo, b[1].library, b[1].top1, b[1].detected),
+        (6.0, 3, 1, 2)
+    );
+    assert_eq!((b[1].outside, b[1].unexplained), (2, 1));
+    assert!((b[1].at - 7.0).abs() < 1e-12);
+    let md = mismatch_report_markdown(&results);
+    assert!(md.contains("| 6–8 | 33 % (1/3) ["), "{md}");
+    assert!(md.contains("| 3–4 | 100 % (1/1) ["), "{md}");
+    // No outside-library case at D 3–4: its column is "–"; at D 6–8 one of two.
+    assert!(
+        md.lines()
+            .any(|l| l.starts_with("| 3–4 |") && l.ends_with("| – |")),
+        "{md}"
+    );
+    assert!(
+        md.lines()
+            .any(|l| l.starts_with("| 6–8 |") && l.contains("| 50 % (1/2) [")),
+        "{md}"
+    );
+    // Without outside-library cases the column is left out; with two effects, the first is
+    // found when some finding names it (here none does, though the verdict names the second).
+    let mut two: Vec<MismatchResult> = results
+        .iter()
+        .filter(|r| !r.kind.outside())
+        .cloned()
+        .collect();
+    for r in &mut two {
+        r.two = Some(TwoFound {
+            first: (r.result.detectability, false),
+            second: (7.0, true),
+            second_mechanism: "mode_hop".into(),
+        });
+    }
+    let md2 = mismatch_report_markdown(&two);
+    assert!(!md2.contains("outside: `unexplained`"), "{md2}");
+    assert!(md2.contains("(the first of two effects)"), "{md2}");
+    assert!(
+        md2.contains("| 6–8 | 33 % (1/3) [6–79 %] | 0 % (0/3) ["),
+        "{md2}"
+    );
+    // Beside a coarse reading, the quantum's finding alone is not the effect found.
+    let mut coarse: Vec<MismatchResult> = results
+        .iter()
+        .filter(|r| matches!(r.kind, Kind::Library(_)))
+        .cloned()
+        .collect();
+    for r in &mut coarse {
+        r.result.predicted = Label::Mechanism(Family::TempQuantization.mechanism());
+        r.coarse = Some(CoarseFound {
+            quantum_c: 0.25,
+            d: r.result.detectability,
+            effect_found: r.result.id == 1,
+            effect_first: false,
+            artefact_named: true,
+            other_named: false,
+        });
+    }
+    let b = super::curve::bins(&coarse);
+    assert_eq!((b[1].library, b[1].top1, b[1].detected), (3, 0, 1), "{b:?}");
+    assert!(mismatch_report_markdown(&coarse).contains("(beside a coarse temperature reading)"));
+    let dir = tempfile::tempdir().expect("temp dir");
+    let png = dir.path().join("detection.png");
+    detection_png(&results, "made-up", &png).expect("draws");
+    let bytes = std::fs::read(&png).expect("reads");
+    assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n");
+}
+
 /// A run of hidden effects only (`--only` without `none`) says it measured no false alarms
 /// instead of printing an empty calibration and "0 of 0" for every condition.
 #[test]
