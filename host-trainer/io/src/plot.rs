@@ -419,19 +419,19 @@ fn log_ticks(range: &Range<f64>) -> Vec<(f64, Option<String>)> {
     out
 }
 
-fn check_size(fig: &Figure) -> Result<(), PlotError> {
+fn check_size((width, height): (u32, u32)) -> Result<(), PlotError> {
     let ok = |v: u32| (100..=10_000).contains(&v);
-    if ok(fig.width) && ok(fig.height) {
+    if ok(width) && ok(height) {
         Ok(())
     } else {
-        Err(PlotError::BadSize(fig.width, fig.height))
+        Err(PlotError::BadSize(width, height))
     }
 }
 
 /// Draws `fig` into a PNG file at `path` (`fig.width` × `fig.height` px), atomically
 /// ([`crate::atomic::write_with`]).
 pub fn render_png(fig: &Figure, path: &Path) -> Result<(), PlotError> {
-    check_size(fig)?;
+    check_size((fig.width, fig.height))?;
     register_font()?;
     crate::atomic::write_with(path, |tmp| {
         draw(
@@ -441,10 +441,34 @@ pub fn render_png(fig: &Figure, path: &Path) -> Result<(), PlotError> {
     })
 }
 
+/// Draws a figure [`Figure`] cannot describe (error bars, bands, reference lines) into a PNG
+/// file at `path` (`width` × `height` px): with the same embedded font (registered under
+/// "sans-serif"), white background and atomic write as [`render_png`]. `draw` gets the whole
+/// image's drawing area; presenting it and mapping the backend's errors are done here.
+pub fn render_custom_png<F>(
+    path: &Path,
+    (width, height): (u32, u32),
+    draw: F,
+) -> Result<(), PlotError>
+where
+    F: for<'a> FnOnce(
+        &DrawingArea<BitMapBackend<'a>, Shift>,
+    ) -> Result<(), Box<dyn std::error::Error>>,
+{
+    check_size((width, height))?;
+    register_font()?;
+    crate::atomic::write_with(path, |tmp| {
+        let root = BitMapBackend::new(tmp, (width, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(draw_err)?;
+        draw(&root).map_err(draw_err)?;
+        root.present().map_err(draw_err)
+    })
+}
+
 /// Draws `fig` into an RGB8 buffer (row-major, 3 bytes per pixel); for tests and callers
 /// that post-process the image.
 pub fn render_rgb(fig: &Figure) -> Result<Vec<u8>, PlotError> {
-    check_size(fig)?;
+    check_size((fig.width, fig.height))?;
     register_font()?;
     let mut buf = vec![0u8; fig.width as usize * fig.height as usize * 3];
     draw(

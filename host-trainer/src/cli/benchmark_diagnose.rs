@@ -245,7 +245,11 @@ fn run_mismatched_set(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
         calibration_png(&results, &args.out.join("calibration.png"))?;
     }
     if results.iter().any(|r| r.kind != Kind::Clean) {
-        detection_png(&results, "mismatched", &args.out.join("detection.png"))?;
+        detection_png(
+            &results,
+            &opts.variant.describe(),
+            &args.out.join("detection.png"),
+        )?;
     }
     println!("{md}");
     eprintln!(

@@ -7,7 +7,9 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
+use rlg_io::plot::render_custom_png;
 
 use super::report::wilson;
 use super::{Kind, MismatchResult};
@@ -170,14 +172,13 @@ pub(super) fn curve_table(o: &mut String, results: &[MismatchResult]) {
     }
 }
 
-/// Draws the detection curve of `results` to a PNG at `path` (the run's set named `set`).
+/// Draws the detection curve of `results` to a PNG at `path` (`set`: the run's set and
+/// variant, as the caption names them).
 pub fn detection_png(results: &[MismatchResult], set: &str, path: &Path) -> Result<(), BenchError> {
     let err = |m: String| BenchError::Truth {
         path: path.display().to_string(),
         message: m,
     };
-    plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
-        .map_err(|_| err("the embedded font could not be loaded".into()))?;
     let bins = bins(results);
     let xmax = bins
         .iter()
@@ -185,13 +186,11 @@ pub fn detection_png(results: &[MismatchResult], set: &str, path: &Path) -> Resu
         .fold(8.0, f64::max);
     // From just below the first bin that holds cases: the set draws few effects at low D.
     let xmin = bins.first().map_or(0.0, |b| (b.lo - 0.5).max(0.0));
-    let draw = || -> Result<(), Box<dyn std::error::Error>> {
-        let root = BitMapBackend::new(path, (900, 650)).into_drawing_area();
-        root.fill(&WHITE)?;
-        let mut chart = ChartBuilder::on(&root)
+    render_custom_png(path, (900, 650), |root| {
+        let mut chart = ChartBuilder::on(root)
             .caption(
                 format!(
-                    "Detection by detectability D, {set} set, {} recordings",
+                    "Detection by detectability D, {set}, {} recordings",
                     results.len()
                 ),
                 ("sans-serif", 20),
@@ -267,15 +266,22 @@ pub fn detection_png(results: &[MismatchResult], set: &str, path: &Path) -> Resu
                 PathElement::new(vec![(x + dx, lo), (x + dx, hi)], color.stroke_width(1))
             }))?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::LowerRight)
-            .label_font(("sans-serif", 14))
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()?;
-        root.present()?;
-        Ok(())
-    };
-    draw().map_err(|e| err(e.to_string()))
+        legend(&mut chart, SeriesLabelPosition::LowerRight)
+    })
+    .map_err(|e| err(e.to_string()))
+}
+
+/// The legend of a benchmark figure's series, boxed at `position` inside the plot.
+pub(super) fn legend<'a>(
+    chart: &mut ChartContext<'a, BitMapBackend<'a>, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    position: SeriesLabelPosition,
+) -> Result<(), Box<dyn std::error::Error>> {
+    chart
+        .configure_series_labels()
+        .position(position)
+        .label_font(("sans-serif", 14))
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()?;
+    Ok(())
 }

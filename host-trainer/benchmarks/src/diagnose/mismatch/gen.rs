@@ -310,6 +310,27 @@ pub struct Variant {
     pub noise_in_time: bool,
 }
 
+impl Variant {
+    /// The set's name with the variant's departures, for a caption: "mismatched set, two
+    /// effects, coarse reading".
+    pub fn describe(&self) -> String {
+        let parts = [
+            (self.other_shapes, "other shapes"),
+            (self.effect_elsewhere, "effect elsewhere"),
+            (self.logger, "logger artefacts"),
+            (self.second_effect, "two effects"),
+            (self.coarse_reading, "coarse reading"),
+            (self.noise_in_time, "noise level in time"),
+        ];
+        let mut s = String::from("mismatched set");
+        for (_, name) in parts.iter().filter(|p| p.0) {
+            s.push_str(", ");
+            s.push_str(name);
+        }
+        s
+    }
+}
+
 /// What a hidden effect is driven by: the sensor's node, or with `elsewhere` the body's
 /// other node for a library mechanism of the bias (the step in time and the (dT/dt)² term
 /// outside the library stay on the sensor's node; sensor and noise terms act through the

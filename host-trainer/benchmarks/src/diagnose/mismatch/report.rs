@@ -4,7 +4,9 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use plotters::prelude::*;
+use rlg_io::plot::render_custom_png;
 
+use super::curve::legend;
 use super::gen::{BESIDE_TAGS, CONDITION_TAGS};
 use super::logger::LOGGER_TAGS;
 use super::{Kind, MismatchResult};
@@ -554,8 +556,6 @@ pub fn calibration_png_of(clean: &[&CaseResult], set: &str, path: &Path) -> Resu
         path: path.display().to_string(),
         message: m,
     };
-    plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
-        .map_err(|_| err("the embedded font could not be loaded".into()))?;
     let clean = clean.to_vec();
     let n = clean.len().max(1) as f64;
     let ra = clean.iter().map(|r| r.alpha).fold(0.0, f64::max);
@@ -577,10 +577,8 @@ pub fn calibration_png_of(clean: &[&CaseResult], set: &str, path: &Path) -> Resu
         .fold(2.0 * xmax, f64::max)
         .min(1.0)
         * 1.05;
-    let draw = || -> Result<(), Box<dyn std::error::Error>> {
-        let root = BitMapBackend::new(path, (900, 650)).into_drawing_area();
-        root.fill(&WHITE)?;
-        let mut chart = ChartBuilder::on(&root)
+    render_custom_png(path, (900, 650), |root| {
+        let mut chart = ChartBuilder::on(root)
             .caption(
                 format!(
                     "p-value calibration on {} clean {set} recordings (run at α = {:.0} %)",
@@ -638,15 +636,7 @@ pub fn calibration_png_of(clean: &[&CaseResult], set: &str, path: &Path) -> Resu
             .draw_series(LineSeries::new(best, red.stroke_width(2)))?
             .label("best candidate's p ≤ α")
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], red.stroke_width(2)));
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .label_font(("sans-serif", 14))
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()?;
-        root.present()?;
-        Ok(())
-    };
-    draw().map_err(|e| err(e.to_string()))
+        legend(&mut chart, SeriesLabelPosition::UpperLeft)
+    })
+    .map_err(|e| err(e.to_string()))
 }

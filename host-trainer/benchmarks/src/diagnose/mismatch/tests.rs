@@ -1020,3 +1020,14 @@ fn coarse_readings_and_noise_in_time_keep_the_twin() {
     }
     assert_eq!(forms.len(), 3, "{forms:?}");
 }
+
+#[test]
+fn a_figure_names_the_variant_it_draws() {
+    assert_eq!(Variant::default().describe(), "mismatched set");
+    let v = Variant {
+        second_effect: true,
+        coarse_reading: true,
+        ..Variant::default()
+    };
+    assert_eq!(v.describe(), "mismatched set, two effects, coarse reading");
+}
