@@ -41,7 +41,8 @@ pub struct BenchmarkDiagnoseArgs {
     /// 100 (mismatched: 60) without a hidden term.
     #[arg(long)]
     pub quick: bool,
-    /// Keep the recordings and truth sidecars.
+    /// Keep the recordings, their truth sidecars and their diagnoses (`<name>.diagnosis.json`,
+    /// as `rlg diagnose --json` writes them).
     #[arg(long)]
     pub keep: bool,
     /// False-alarm probability of the diagnosis' significance test (default: the

@@ -47,7 +47,7 @@ use rayon::prelude::*;
 use rlg_diagnose::candidates::Family;
 use rlg_diagnose::prepare::PhysicsModel;
 use rlg_diagnose::{diagnose, Options};
-use rlg_io::recording::Recording;
+use rlg_io::recording::{write_atomic, Recording};
 use rlg_simulate::{truth_path, write_simulation};
 use score::score;
 
@@ -60,7 +60,7 @@ pub struct BenchOptions {
     pub per_term: usize,
     /// Recordings with nothing hidden.
     pub nulls: usize,
-    /// Keep the recordings and sidecars in the output directory.
+    /// Keep the recordings, their sidecars and their diagnoses in the output directory.
     pub keep: bool,
     /// False-alarm probability of the diagnosis' significance test.
     pub alpha: f64,
@@ -177,11 +177,29 @@ pub fn run_benchmark(opts: &BenchOptions, out_dir: &Path) -> Result<Vec<CaseResu
                 r.shift = opts.shift;
                 r
             });
-            if !opts.keep {
+            if opts.keep {
+                write_report_beside(&csv, &d)?;
+            } else {
                 let _ = std::fs::remove_file(&csv);
                 let _ = std::fs::remove_file(truth_path(&csv));
             }
             r
         })
         .collect()
+}
+
+/// Writes the diagnosis `d` of the kept recording `csv` beside it (`<stem>.diagnosis.json`),
+/// as `rlg diagnose --json` writes it: why a case was missed is read there without
+/// diagnosing the recording again.
+pub(crate) fn write_report_beside(
+    csv: &Path,
+    d: &rlg_diagnose::Diagnosis,
+) -> Result<(), BenchError> {
+    let report = csv.with_extension("diagnosis.json");
+    let json = serde_json::to_vec_pretty(d).map_err(|e| BenchError::Truth {
+        path: report.display().to_string(),
+        message: e.to_string(),
+    })?;
+    write_atomic(&report, &json)?;
+    Ok(())
 }

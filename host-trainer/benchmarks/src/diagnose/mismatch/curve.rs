@@ -207,7 +207,10 @@ pub fn detection_png(results: &[MismatchResult], set: &str, path: &Path) -> Resu
             .axis_desc_style(("sans-serif", 16))
             .draw()?;
         let grey = RGBColor(90, 90, 90);
-        for (i, &(lo, hi, t)) in TARGETS.iter().enumerate() {
+        // The targets are read against the top-1 line: a run of effects outside the library
+        // alone has neither.
+        let library = bins.iter().any(|b| b.library > 0);
+        for (i, &(lo, hi, t)) in TARGETS.iter().enumerate().filter(|_| library) {
             let s = chart.draw_series(std::iter::once(PathElement::new(
                 vec![(lo, t), (hi.min(xmax), t)],
                 grey.stroke_width(2),

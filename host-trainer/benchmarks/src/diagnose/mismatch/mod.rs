@@ -190,7 +190,7 @@ pub struct MismatchOptions {
     pub per_outside: usize,
     /// Recordings with nothing hidden.
     pub clean: usize,
-    /// Keep the recordings and their truth files.
+    /// Keep the recordings, their truth files and their diagnoses' reports.
     pub keep: bool,
     /// False-alarm probability of the diagnosis' significance test.
     pub alpha: f64,
@@ -411,7 +411,9 @@ pub fn run_mismatched(
             let t0 = std::time::Instant::now();
             let d = diagnose(super::cut_start(&rec, opts.shift), &model, &dopts)?;
             let secs = t0.elapsed().as_secs_f64();
-            if !opts.keep {
+            if opts.keep {
+                super::write_report_beside(&csv, &d)?;
+            } else {
                 let _ = std::fs::remove_file(&csv);
                 let _ = std::fs::remove_file(&truth);
             }

@@ -605,6 +605,17 @@ fn slow_drift_is_not_structure_under_rate_random_walk() {
         "{:?}",
         d.evidence.notes
     );
+    // A kept case's report beside its recording is the diagnosis as `rlg diagnose --json`
+    // writes it.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let csv = dir.path().join("mismatched0167.csv");
+    crate::diagnose::write_report_beside(&csv, &d).expect("writes");
+    let kept: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(dir.path().join("mismatched0167.diagnosis.json")).expect("kept"),
+    )
+    .expect("JSON");
+    assert_eq!(kept, serde_json::to_value(&d).expect("serialises"));
+    assert_eq!(kept["verdict"], "consistent");
 }
 
 /// A step at one time in the independent generator's recording (1.68e-3 °/h at 10.2 h
