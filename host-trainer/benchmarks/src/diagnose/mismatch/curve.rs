@@ -5,9 +5,11 @@
 //! says where between them the power is lost and whether a miss is a silence or a wrong name.
 
 use std::fmt::Write as _;
+use std::ops::Range;
 use std::path::Path;
 
 use plotters::coord::types::RangedCoordf64;
+use plotters::coord::Shift;
 use plotters::prelude::*;
 use rlg_io::plot::render_custom_png;
 
@@ -187,25 +189,18 @@ pub fn detection_png(results: &[MismatchResult], set: &str, path: &Path) -> Resu
     // From just below the first bin that holds cases: the set draws few effects at low D.
     let xmin = bins.first().map_or(0.0, |b| (b.lo - 0.5).max(0.0));
     render_custom_png(path, (900, 650), |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(
-                format!(
-                    "Detection by detectability D, {set}, {} recordings",
-                    results.len()
-                ),
-                ("sans-serif", 20),
-            )
-            .margin(12)
-            .x_label_area_size(50)
-            .y_label_area_size(70)
-            .build_cartesian_2d(xmin..xmax, 0.0..1.05)?;
-        chart
-            .configure_mesh()
-            .x_desc("D (GLS signal-to-noise of the hidden effect; a bin's cases drawn at their median D)")
-            .y_desc("share of the bin's recordings")
-            .label_style(("sans-serif", 14))
-            .axis_desc_style(("sans-serif", 16))
-            .draw()?;
+        let mut chart = frame(
+            root,
+            &format!(
+                "Detection by detectability D, {set}, {} recordings",
+                results.len()
+            ),
+            (xmin..xmax, 0.0..1.05),
+            (
+                "D (GLS signal-to-noise of the hidden effect; a bin's cases drawn at their median D)",
+                "share of the bin's recordings",
+            ),
+        )?;
         let grey = RGBColor(90, 90, 90);
         // The targets are read against the top-1 line: a run of effects outside the library
         // alone has neither.
@@ -275,6 +270,33 @@ pub fn detection_png(results: &[MismatchResult], set: &str, path: &Path) -> Resu
 }
 
 /// The legend of a benchmark figure's series, boxed at `position` inside the plot.
+/// A benchmark figure's chart on `root`: its caption, margins, label areas and mesh with the
+/// axis descriptions `(x, y)`, the same in every figure of the benchmark.
+pub(super) fn frame<'a>(
+    root: &DrawingArea<BitMapBackend<'a>, Shift>,
+    caption: &str,
+    (x, y): (Range<f64>, Range<f64>),
+    (x_desc, y_desc): (&str, &str),
+) -> Result<
+    ChartContext<'a, BitMapBackend<'a>, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    Box<dyn std::error::Error>,
+> {
+    let mut chart = ChartBuilder::on(root)
+        .caption(caption, ("sans-serif", 20))
+        .margin(12)
+        .x_label_area_size(50)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x, y)?;
+    chart
+        .configure_mesh()
+        .x_desc(x_desc)
+        .y_desc(y_desc)
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 16))
+        .draw()?;
+    Ok(chart)
+}
+
 pub(super) fn legend<'a>(
     chart: &mut ChartContext<'a, BitMapBackend<'a>, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
     position: SeriesLabelPosition,

@@ -6,7 +6,7 @@ use std::path::Path;
 use plotters::prelude::*;
 use rlg_io::plot::render_custom_png;
 
-use super::curve::legend;
+use super::curve::{frame, legend};
 use super::gen::{BESIDE_TAGS, CONDITION_TAGS};
 use super::logger::LOGGER_TAGS;
 use super::{Kind, MismatchResult};
@@ -578,26 +578,16 @@ pub fn calibration_png_of(clean: &[&CaseResult], set: &str, path: &Path) -> Resu
         .min(1.0)
         * 1.05;
     render_custom_png(path, (900, 650), |root| {
-        let mut chart = ChartBuilder::on(root)
-            .caption(
-                format!(
-                    "p-value calibration on {} clean {set} recordings (run at α = {:.0} %)",
-                    clean.len(),
-                    100.0 * ra
-                ),
-                ("sans-serif", 20),
-            )
-            .margin(12)
-            .x_label_area_size(50)
-            .y_label_area_size(70)
-            .build_cartesian_2d(0.0..xmax, 0.0..ymax)?;
-        chart
-            .configure_mesh()
-            .x_desc("α")
-            .y_desc("share of clean recordings")
-            .label_style(("sans-serif", 14))
-            .axis_desc_style(("sans-serif", 16))
-            .draw()?;
+        let mut chart = frame(
+            root,
+            &format!(
+                "p-value calibration on {} clean {set} recordings (run at α = {:.0} %)",
+                clean.len(),
+                100.0 * ra
+            ),
+            (0.0..xmax, 0.0..ymax),
+            ("α", "share of clean recordings"),
+        )?;
         let band_color = RGBColor(44, 160, 44);
         let mut band: Vec<(f64, f64)> = grid.iter().map(|&a| (a, 0.5 * a)).collect();
         band.extend(grid.iter().rev().map(|&a| (a, (2.0 * a).min(ymax))));
