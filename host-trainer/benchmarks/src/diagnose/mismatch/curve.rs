@@ -269,7 +269,6 @@ pub fn detection_png(results: &[MismatchResult], set: &str, path: &Path) -> Resu
     .map_err(|e| err(e.to_string()))
 }
 
-/// The legend of a benchmark figure's series, boxed at `position` inside the plot.
 /// A benchmark figure's chart on `root`: its caption, margins, label areas and mesh with the
 /// axis descriptions `(x, y)`, the same in every figure of the benchmark.
 pub(super) fn frame<'a>(
@@ -297,6 +296,7 @@ pub(super) fn frame<'a>(
     Ok(chart)
 }
 
+/// The legend of a benchmark figure's series, boxed at `position` inside the plot.
 pub(super) fn legend<'a>(
     chart: &mut ChartContext<'a, BitMapBackend<'a>, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
     position: SeriesLabelPosition,
