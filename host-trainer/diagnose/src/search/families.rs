@@ -381,10 +381,10 @@ impl Judge<'_> {
                 Family::Heteroscedastic => true,
                 _ => false,
             };
-        // A noise scale must go with temperature, not only with time.
-        let in_time = f == Family::Heteroscedastic
-            && fit.gain > 0.0
-            && !self.noise_scale_with_temperature(out);
+        // A noise scale must go with temperature, not only with time; whatever its held-out
+        // gain: a noise level that changes in time and that a temperature quadratic does not
+        // predict is not structure of the bias either.
+        let in_time = f == Family::Heteroscedastic && !self.noise_scale_with_temperature(out);
         let separable = separable && !in_time;
         // The cycle-by-cycle gain is required only where the noise model is not trusted:
         // with two cycles each is predicted from one, which loses real hysteresis near the
