@@ -6,7 +6,7 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use crate::linalg::{centred, dot};
+use crate::linalg::{centred, dot, Basis};
 use crate::minimise::grid_then_golden;
 use crate::prepare::read_quantum;
 
@@ -121,6 +121,83 @@ impl CountVariance {
         c.base = c.log_var(c.s, |_| 1.0);
         c.s_ref.store(c.s.to_bits(), Ordering::Relaxed);
         c
+    }
+
+    /// The residual of the blocks' raw log-variances `z_raw` about their mean after a noise
+    /// level σ_b = s·exp(Σⱼ βⱼ·`cols`ⱼ[b]) through the count's model, (ln s, β) fitted by
+    /// least squares from the record's constant s. Where the noise level changes (in time,
+    /// say) the count's own part changes with it, by how much depending on where each
+    /// block's rate falls between counts, that is on the bias and temperature: a level
+    /// taken off the log-variances less the count's part at one σ leaves that dependence
+    /// in, and a temperature quadratic then seems to add beside a level in time.
+    ///
+    /// Gauss–Newton with step halving, by hand: one to five parameters of a smooth model,
+    /// started at the record's fit; the derivatives are central differences of
+    /// [`Self::log_var`].
+    pub(super) fn fit_level(&self, z_raw: &[f64], cols: &[Vec<f64>]) -> Vec<f64> {
+        const H: f64 = 1e-4;
+        let model = |theta: &[f64]| -> Vec<f64> {
+            self.log_var(theta[0].exp(), |b| {
+                cols.iter()
+                    .zip(&theta[1..])
+                    .map(|(c, beta)| beta * c[b])
+                    .sum::<f64>()
+                    .exp()
+            })
+        };
+        let residual = |theta: &[f64]| -> Vec<f64> {
+            let g = model(theta);
+            centred(&z_raw.iter().zip(&g).map(|(a, b)| a - b).collect::<Vec<_>>())
+        };
+        let jacobian = |theta: &[f64]| -> Vec<Vec<f64>> {
+            (0..theta.len())
+                .map(|j| {
+                    let (mut up, mut down) = (theta.to_vec(), theta.to_vec());
+                    up[j] += H;
+                    down[j] -= H;
+                    let (gu, gd) = (model(&up), model(&down));
+                    centred(
+                        &gu.iter()
+                            .zip(&gd)
+                            .map(|(a, b)| (a - b) / (2.0 * H))
+                            .collect::<Vec<_>>(),
+                    )
+                })
+                .collect()
+        };
+        let mut theta = vec![0.0; cols.len() + 1];
+        theta[0] = self.s.max(Self::S_MIN).ln();
+        let mut r = residual(&theta);
+        let mut rss = dot(&r, &r);
+        for _ in 0..30 {
+            let step = Basis::new(&jacobian(&theta)).coefficients(&r);
+            let mut lambda = 1.0;
+            let improved = loop {
+                let trial: Vec<f64> = theta
+                    .iter()
+                    .zip(&step)
+                    .map(|(t, d)| t + lambda * d)
+                    .collect();
+                let rt = residual(&trial);
+                let rss_t = dot(&rt, &rt);
+                if rss_t.is_finite() && rss_t < rss {
+                    break Some((trial, rt, rss_t));
+                }
+                lambda *= 0.5;
+                if lambda < 1e-3 {
+                    break None;
+                }
+            };
+            let Some((trial, rt, rss_t)) = improved else {
+                break;
+            };
+            let done = rss - rss_t < 1e-10 * rss.max(f64::MIN_POSITIVE);
+            (theta, r, rss) = (trial, rt, rss_t);
+            if done {
+                break;
+            }
+        }
+        r
     }
 
     pub(super) fn s_ref(&self) -> f64 {

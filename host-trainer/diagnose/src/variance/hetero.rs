@@ -257,22 +257,34 @@ impl VarianceTest {
         let zc = centred(&self.z);
         let rss0 = dot(&zc, &zc);
         let level = LevelInTime::best(&zc, time_s)?;
+        // Each alternative's residual sum of squares: on an undithered count the noise
+        // level (in time, in temperature or both) is fitted through the count's model
+        // (`CountVariance::fit_level`), since the count's own part changes with it.
+        let z_raw: Option<Vec<f64>> = self
+            .quant
+            .as_ref()
+            .map(|c| self.z.iter().zip(&c.base).map(|(a, b)| a + b).collect());
+        let rss_of = |cols: &[Vec<f64>]| -> f64 {
+            let r = match (&self.quant, &z_raw) {
+                (Some(c), Some(z)) => c.fit_level(z, cols),
+                _ => Basis::new(cols).residual(&zc),
+            };
+            dot(&r, &r)
+        };
         let cols = level.columns(time_s);
-        let r_t = Basis::new(&cols).residual(&zc);
-        let rss_t = dot(&r_t, &r_t);
+        let rss_t = rss_of(&cols);
         let mut both_cols = cols;
         both_cols.extend(self.perp.q.iter().cloned());
-        let r_b = Basis::new(&both_cols).residual(&zc);
-        let rss_b = dot(&r_b, &r_b);
-        let r_temp = self.perp.residual(&zc);
-        let rss_temp = dot(&r_temp, &r_temp);
+        let rss_b = rss_of(&both_cols);
+        let rss_temp = rss_of(&self.perp.q);
         let k_time = level.parameters();
         let dbic_time = delta_bic(n, rss0, rss0 - rss_t, k_time);
         let dbic_temp_beside = delta_bic(n, rss_t, rss_t - rss_b, self.perp.q.len());
         let dbic_time_beside = delta_bic(n, rss_temp, rss_temp - rss_b, k_time);
+        let dbic_temp = delta_bic(n, rss0, rss0 - rss_temp, self.perp.q.len());
         let in_time = dbic_temp_beside >= 0.0
             && if several_cycles {
-                dbic_time <= self.dbic
+                dbic_time <= dbic_temp
             } else {
                 dbic_time_beside < 0.0
             };

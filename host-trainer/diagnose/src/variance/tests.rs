@@ -491,3 +491,48 @@ fn a_level_in_time_finds_its_shape() {
     let drift = with(&|b| 1.2 * (b as f64 / n as f64 - 0.5).powi(2));
     assert_eq!(LevelInTime::best(&drift, &time_s), Some(LevelInTime::Drift));
 }
+
+/// 600 blocks of 100 samples of a rate counted in whole 0.1″ increments over one ramp of
+/// 0…50 °C (time and temperature go together), the bias moving two counts over it, white
+/// noise of σ 0.25 counts times `scale(block, temperature)` (under half a count over the
+/// record, or it is not read as an undithered count); (rate, temperatures, block times).
+fn counted_ramp(scale: &dyn Fn(usize, f64) -> f64, seed: u64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let (q, s, nb) = (0.1, 0.25, 600);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let temp: Vec<f64> = (0..nb).map(|b| 50.0 * b as f64 / nb as f64).collect();
+    let time_s: Vec<f64> = (0..nb).map(|b| 50.0 + 100.0 * b as f64).collect();
+    let (mut angle, mut counted) = (rng.random::<f64>() * q, 0.0f64);
+    let mut rate = Vec::with_capacity(100 * nb);
+    for (b, t) in temp.iter().enumerate() {
+        for _ in 0..100 {
+            let e: f64 = StandardNormal.sample(&mut rng);
+            angle += 0.5 + 0.004 * (t - 20.0) + s * q * scale(b, *t) * e;
+            let c = (angle / q).floor() * q;
+            rate.push(c - counted);
+            counted = c;
+        }
+    }
+    (rate, temp, time_s)
+}
+
+/// On an undithered count over one temperature ramp, a white-noise level that doubles at one
+/// time is put down to time, not temperature: the count's own part, which changes with the
+/// noise by how much depending on where the rate falls between counts (on temperature),
+/// changes with it. A noise that grows with temperature on the same ramp keeps its name.
+#[test]
+fn a_noise_level_in_time_on_counts_is_not_a_noise_scale() {
+    let (rate, temp, time_s) = counted_ramp(&|b, _| if b >= 250 { 2.0 } else { 1.0 }, 5);
+    let t = VarianceTest::from_samples(&rate, 100, temp).expect("test");
+    assert!(t.counts());
+    match t.in_time_not_temperature(&time_s, false) {
+        Some((dbic, LevelInTime::Step { at })) => {
+            assert!(at.abs_diff(250) <= 6, "step at {at}");
+            assert!(dbic >= 0.0, "{dbic}");
+        }
+        other => panic!("{other:?}"),
+    }
+    let (rate, temp, time_s) = counted_ramp(&|_, t| 1.0 + 0.5 * ((t - 10.0) / 30.0).powi(2), 6);
+    let t = VarianceTest::from_samples(&rate, 100, temp).expect("test");
+    assert!(t.counts());
+    assert_eq!(t.in_time_not_temperature(&time_s, false), None);
+}
