@@ -123,18 +123,24 @@ impl CountVariance {
         c
     }
 
-    /// The residual of the blocks' raw log-variances `z_raw` about their mean after a noise
-    /// level σ_b = s·exp(Σⱼ βⱼ·`cols`ⱼ[b]) through the count's model, (ln s, β) fitted by
-    /// least squares from the record's constant s. Where the noise level changes (in time,
-    /// say) the count's own part changes with it, by how much depending on where each
-    /// block's rate falls between counts, that is on the bias and temperature: a level
-    /// taken off the log-variances less the count's part at one σ leaves that dependence
-    /// in, and a temperature quadratic then seems to add beside a level in time.
+    /// The least residual sum of squares of the blocks' raw log-variances `z_raw` about
+    /// their mean under a noise level σ_b = s·exp(Σⱼ βⱼ·`cols`ⱼ[b]) through the count's
+    /// model, and its (ln s, β): fitted by least squares from `start` (the record's constant
+    /// s and β = 0 where `None`). Where the noise level changes (in time, say) the count's
+    /// own part changes with it, by how much depending on where each block's rate falls
+    /// between counts, that is on the bias and temperature: a level taken off the
+    /// log-variances less the count's part at one σ leaves that dependence in, and a
+    /// temperature quadratic then seems to add beside a level in time.
     ///
     /// Gauss–Newton with step halving, by hand: one to five parameters of a smooth model,
-    /// started at the record's fit; the derivatives are central differences of
-    /// [`Self::log_var`].
-    pub(super) fn fit_level(&self, z_raw: &[f64], cols: &[Vec<f64>]) -> Vec<f64> {
+    /// started at a fit already made, so that no step is far; the derivatives are central
+    /// differences of the model.
+    pub(super) fn fit_level(
+        &self,
+        z_raw: &[f64],
+        cols: &[Vec<f64>],
+        start: Option<Vec<f64>>,
+    ) -> (f64, Vec<f64>) {
         const H: f64 = 1e-4;
         let model = |theta: &[f64]| -> Vec<f64> {
             self.log_var(theta[0].exp(), |b| {
@@ -165,8 +171,11 @@ impl CountVariance {
                 })
                 .collect()
         };
-        let mut theta = vec![0.0; cols.len() + 1];
-        theta[0] = self.s.max(Self::S_MIN).ln();
+        let mut theta = start.unwrap_or_else(|| {
+            let mut t = vec![0.0; cols.len() + 1];
+            t[0] = self.s.max(Self::S_MIN).ln();
+            t
+        });
         let mut r = residual(&theta);
         let mut rss = dot(&r, &r);
         for _ in 0..30 {
@@ -197,7 +206,7 @@ impl CountVariance {
                 break;
             }
         }
-        r
+        (rss, theta)
     }
 
     pub(super) fn s_ref(&self) -> f64 {

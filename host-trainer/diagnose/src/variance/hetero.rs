@@ -243,8 +243,9 @@ impl VarianceTest {
     /// negative). On one cycle, where time and temperature move together, the level in time
     /// must also add beside the temperature's quadratic (ΔBIC < 0): a noise level that
     /// follows temperature is fitted by its quadratic as well as by any shape in time, and
-    /// keeps its name. Returns the temperature's ΔBIC beside the level in time, and the level,
-    /// where the noise follows time.
+    /// keeps its name. On an undithered count each level is fitted through the count's model
+    /// ([`CountVariance::fit_level`]). Returns the temperature's ΔBIC beside the level in
+    /// time, and the level, where the noise follows time.
     pub fn in_time_not_temperature(
         &self,
         time_s: &[f64],
@@ -257,26 +258,35 @@ impl VarianceTest {
         let zc = centred(&self.z);
         let rss0 = dot(&zc, &zc);
         let level = LevelInTime::best(&zc, time_s)?;
-        // Each alternative's residual sum of squares: on an undithered count the noise
-        // level (in time, in temperature or both) is fitted through the count's model
-        // (`CountVariance::fit_level`), since the count's own part changes with it.
-        let z_raw: Option<Vec<f64>> = self
-            .quant
-            .as_ref()
-            .map(|c| self.z.iter().zip(&c.base).map(|(a, b)| a + b).collect());
-        let rss_of = |cols: &[Vec<f64>]| -> f64 {
-            let r = match (&self.quant, &z_raw) {
-                (Some(c), Some(z)) => c.fit_level(z, cols),
-                _ => Basis::new(cols).residual(&zc),
-            };
-            dot(&r, &r)
-        };
         let cols = level.columns(time_s);
-        let rss_t = rss_of(&cols);
-        let mut both_cols = cols;
+        let mut both_cols = cols.clone();
         both_cols.extend(self.perp.q.iter().cloned());
-        let rss_b = rss_of(&both_cols);
-        let rss_temp = rss_of(&self.perp.q);
+        let (rss_t, rss_temp, rss_b) = match &self.quant {
+            None => {
+                let rss = |c: &[Vec<f64>]| {
+                    let r = Basis::new(c).residual(&zc);
+                    dot(&r, &r)
+                };
+                (rss(&cols), rss(&self.perp.q), rss(&both_cols))
+            }
+            // On an undithered count the noise level (in time, in temperature, both) is
+            // fitted through the count's model, whose own part changes with it
+            // (`CountVariance::fit_level`); the joint level starts from each single one, so
+            // that it fits at least as well as either.
+            Some(c) => {
+                let z_raw: Vec<f64> = self.z.iter().zip(&c.base).map(|(a, b)| a + b).collect();
+                let (rss_t, th_t) = c.fit_level(&z_raw, &cols, None);
+                let (rss_temp, th_temp) = c.fit_level(&z_raw, &self.perp.q, None);
+                let k = self.perp.q.len();
+                let from_time = [&th_t[..], &vec![0.0; k][..]].concat();
+                let from_temp = [&th_temp[..1], &vec![0.0; cols.len()][..], &th_temp[1..]].concat();
+                let rss_b = c
+                    .fit_level(&z_raw, &both_cols, Some(from_time))
+                    .0
+                    .min(c.fit_level(&z_raw, &both_cols, Some(from_temp)).0);
+                (rss_t, rss_temp, rss_b)
+            }
+        };
         let k_time = level.parameters();
         let dbic_time = delta_bic(n, rss0, rss0 - rss_t, k_time);
         let dbic_temp_beside = delta_bic(n, rss_t, rss_t - rss_b, self.perp.q.len());

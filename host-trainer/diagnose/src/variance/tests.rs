@@ -492,14 +492,18 @@ fn a_level_in_time_finds_its_shape() {
     assert_eq!(LevelInTime::best(&drift, &time_s), Some(LevelInTime::Drift));
 }
 
-/// 600 blocks of 100 samples of a rate counted in whole 0.1″ increments over one ramp of
-/// 0…50 °C (time and temperature go together), the bias moving two counts over it, white
+/// 600 blocks of 100 samples of a rate counted in whole 0.1″ increments at block
+/// temperatures `temp(block)` (°C, within 0…50), the bias moving two counts over 50 °C, white
 /// noise of σ 0.25 counts times `scale(block, temperature)` (under half a count over the
 /// record, or it is not read as an undithered count); (rate, temperatures, block times).
-fn counted_ramp(scale: &dyn Fn(usize, f64) -> f64, seed: u64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+fn counted_over(
+    temp: &dyn Fn(usize) -> f64,
+    scale: &dyn Fn(usize, f64) -> f64,
+    seed: u64,
+) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let (q, s, nb) = (0.1, 0.25, 600);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let temp: Vec<f64> = (0..nb).map(|b| 50.0 * b as f64 / nb as f64).collect();
+    let temp: Vec<f64> = (0..nb).map(temp).collect();
     let time_s: Vec<f64> = (0..nb).map(|b| 50.0 + 100.0 * b as f64).collect();
     let (mut angle, mut counted) = (rng.random::<f64>() * q, 0.0f64);
     let mut rate = Vec::with_capacity(100 * nb);
@@ -515,24 +519,37 @@ fn counted_ramp(scale: &dyn Fn(usize, f64) -> f64, seed: u64) -> (Vec<f64>, Vec<
     (rate, temp, time_s)
 }
 
-/// On an undithered count over one temperature ramp, a white-noise level that doubles at one
-/// time is put down to time, not temperature: the count's own part, which changes with the
-/// noise by how much depending on where the rate falls between counts (on temperature),
-/// changes with it. A noise that grows with temperature on the same ramp keeps its name.
+/// Which the noise level of an undithered count follows, `several_cycles` or not.
+fn follows(
+    temp: &dyn Fn(usize) -> f64,
+    scale: &dyn Fn(usize, f64) -> f64,
+    several_cycles: bool,
+    seed: u64,
+) -> Option<LevelInTime> {
+    let (rate, temp, time_s) = counted_over(temp, scale, seed);
+    let t = VarianceTest::from_samples(&rate, 100, temp).expect("test");
+    assert!(t.counts());
+    t.in_time_not_temperature(&time_s, several_cycles)
+        .map(|(_, level)| level)
+}
+
+/// On an undithered count, a white-noise level that changes in time is put down to time, not
+/// temperature, over one temperature ramp (time and temperature together) and over two
+/// cycles: the count's own part, which changes with the noise by how much depending on where
+/// the rate falls between counts (on temperature), changes with it. A noise that grows with
+/// temperature keeps its name on both.
 #[test]
 fn a_noise_level_in_time_on_counts_is_not_a_noise_scale() {
-    let (rate, temp, time_s) = counted_ramp(&|b, _| if b >= 250 { 2.0 } else { 1.0 }, 5);
-    let t = VarianceTest::from_samples(&rate, 100, temp).expect("test");
-    assert!(t.counts());
-    match t.in_time_not_temperature(&time_s, false) {
-        Some((dbic, LevelInTime::Step { at })) => {
-            assert!(at.abs_diff(250) <= 6, "step at {at}");
-            assert!(dbic >= 0.0, "{dbic}");
-        }
+    let ramp = |b: usize| 50.0 * b as f64 / 600.0;
+    let cycles = |b: usize| 25.0 + 25.0 * (std::f64::consts::TAU * b as f64 / 300.0).sin();
+    let step = |b: usize, _: f64| if b >= 250 { 2.0 } else { 1.0 };
+    let drift = |b: usize, _: f64| 1.0 + 0.8 * b as f64 / 600.0;
+    let with_temp = |_: usize, t: f64| 1.0 + 0.5 * ((t - 10.0) / 30.0).powi(2);
+    match follows(&ramp, &step, false, 5) {
+        Some(LevelInTime::Step { at }) => assert!(at.abs_diff(250) <= 6, "step at {at}"),
         other => panic!("{other:?}"),
     }
-    let (rate, temp, time_s) = counted_ramp(&|_, t| 1.0 + 0.5 * ((t - 10.0) / 30.0).powi(2), 6);
-    let t = VarianceTest::from_samples(&rate, 100, temp).expect("test");
-    assert!(t.counts());
-    assert_eq!(t.in_time_not_temperature(&time_s, false), None);
+    assert_eq!(follows(&cycles, &drift, true, 7), Some(LevelInTime::Drift));
+    assert_eq!(follows(&ramp, &with_temp, false, 6), None);
+    assert_eq!(follows(&cycles, &with_temp, true, 8), None);
 }
