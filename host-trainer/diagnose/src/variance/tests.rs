@@ -191,24 +191,42 @@ fn permutation_null_holds_under_heavy_tails() {
 /// °/h·s is ″), its bias moving with temperature across several counts, white noise of
 /// σ = `s` counts scaled by the term.
 fn counted_blocks(s: f64, k: f64, ref_c: f64, seed: u64) -> (Vec<f64>, Vec<f64>) {
+    let (rate, temp, _) = counted(
+        900,
+        s,
+        &|b| 20.0 + 30.0 * (b as f64 / 150.0).sin(),
+        &|_, t| 1.0 + k * ((t - ref_c) / 30.0).powi(2),
+        seed,
+    );
+    (rate, temp)
+}
+
+/// `nb` blocks of 100 samples of a rate counted in whole 0.1″ increments at block
+/// temperatures `temp(block)` (°C), the count 0.5″ a sample plus 0.004″ per °C, white noise of
+/// σ = `s` counts times `scale(block, temperature)`; (rate, temperatures, block mid-times).
+fn counted(
+    nb: usize,
+    s: f64,
+    temp: &dyn Fn(usize) -> f64,
+    scale: &dyn Fn(usize, f64) -> f64,
+    seed: u64,
+) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let q = 0.1;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let temp: Vec<f64> = (0..900)
-        .map(|b| 20.0 + 30.0 * (f64::from(b) / 150.0).sin())
-        .collect();
+    let temp: Vec<f64> = (0..nb).map(temp).collect();
+    let time_s: Vec<f64> = (0..nb).map(|b| 50.0 + 100.0 * b as f64).collect();
     let (mut angle, mut counted) = (rng.random::<f64>() * q, 0.0f64);
-    let mut rate = Vec::with_capacity(90_000);
-    for t in &temp {
-        let scale = 1.0 + k * ((t - ref_c) / 30.0).powi(2);
+    let mut rate = Vec::with_capacity(100 * nb);
+    for (b, t) in temp.iter().enumerate() {
         for _ in 0..100 {
             let e: f64 = StandardNormal.sample(&mut rng);
-            angle += 0.5 + 0.004 * (t - 20.0) + s * q * scale * e;
+            angle += 0.5 + 0.004 * (t - 20.0) + s * q * scale(b, *t) * e;
             let c = (angle / q).floor() * q;
             rate.push(c - counted);
             counted = c;
         }
     }
-    (rate, temp)
+    (rate, temp, time_s)
 }
 
 /// Whether the statistic is beyond the 10 % quantile of its own 400 permutations.
@@ -492,31 +510,16 @@ fn a_level_in_time_finds_its_shape() {
     assert_eq!(LevelInTime::best(&drift, &time_s), Some(LevelInTime::Drift));
 }
 
-/// 600 blocks of 100 samples of a rate counted in whole 0.1″ increments at block
-/// temperatures `temp(block)` (°C, within 0…50), the bias moving two counts over 50 °C, white
-/// noise of σ 0.25 counts times `scale(block, temperature)` (under half a count over the
-/// record, or it is not read as an undithered count); (rate, temperatures, block times).
+/// 600 blocks of 100 samples of a count at block temperatures `temp(block)` (within 0…50 °C,
+/// the bias moving two counts over them), white noise of σ 0.25 counts times
+/// `scale(block, temperature)` (under half a count over the record, or it is not read as an
+/// undithered count); (rate, temperatures, block times).
 fn counted_over(
     temp: &dyn Fn(usize) -> f64,
     scale: &dyn Fn(usize, f64) -> f64,
     seed: u64,
 ) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-    let (q, s, nb) = (0.1, 0.25, 600);
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let temp: Vec<f64> = (0..nb).map(temp).collect();
-    let time_s: Vec<f64> = (0..nb).map(|b| 50.0 + 100.0 * b as f64).collect();
-    let (mut angle, mut counted) = (rng.random::<f64>() * q, 0.0f64);
-    let mut rate = Vec::with_capacity(100 * nb);
-    for (b, t) in temp.iter().enumerate() {
-        for _ in 0..100 {
-            let e: f64 = StandardNormal.sample(&mut rng);
-            angle += 0.5 + 0.004 * (t - 20.0) + s * q * scale(b, *t) * e;
-            let c = (angle / q).floor() * q;
-            rate.push(c - counted);
-            counted = c;
-        }
-    }
-    (rate, temp, time_s)
+    counted(600, 0.25, temp, scale, seed)
 }
 
 /// Which the noise level of an undithered count follows, `several_cycles` or not.
