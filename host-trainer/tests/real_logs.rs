@@ -76,8 +76,13 @@ struct Imu {
     rate_dph: [Vec<f64>; 3],
 }
 
-/// `seconds` of the chamber cycle at `hz`, sample times from `times` when given.
+/// `seconds` of the chamber cycle at `hz`, white noise of 250 °/h per sample.
 fn imu(hz: f64, seconds: f64, seed: u64) -> Imu {
+    imu_with(hz, seconds, seed, 250.0)
+}
+
+/// `seconds` of the chamber cycle at `hz`, white noise of `white_dph` per sample.
+fn imu_with(hz: f64, seconds: f64, seed: u64, white_dph: f64) -> Imu {
     let mut g = Normal(seed);
     let dt = 1.0 / hz;
     let n = (seconds * hz) as usize;
@@ -107,7 +112,7 @@ fn imu(hz: f64, seconds: f64, seed: u64) -> Imu {
         ];
         for a in 0..3 {
             flicker[a] = 0.995 * flicker[a] + 3.0 * g.next();
-            out.rate_dph[a].push(bias[a] + flicker[a] + 250.0 * g.next());
+            out.rate_dph[a].push(bias[a] + flicker[a] + white_dph * g.next());
         }
         out.time_s.push(t);
         // A 1/256 °C sensor LSB and a little noise.
@@ -633,6 +638,49 @@ fn the_loop_is_modelled_where_cv_adopts_it() {
         "{report}"
     );
     assert!(out.join("table_diagnosed.h").exists());
+}
+
+/// A quiet MEMS gyro (white noise of 25 °/h a sample against a bias moving 10⁴ °/h over the
+/// cycle): the f32 kernel sums of the well-fitting σ, c cancel by more than the export limit,
+/// and the board table is still one that fits within a small factor of the LS-SVM, with the
+/// reason in the notes, not the first table within the limit (a c of 1 or less, which fitted
+/// 9 to 30 times worse than the LS-SVM).
+#[test]
+fn a_quiet_mems_gyro_gets_a_board_table_that_fits() {
+    let d = dir("quiet");
+    let file = d.join("imu.tsv");
+    write_tsv(&file, &imu_with(2.0, 3600.0, 3, 25.0), true);
+    let out = d.join("cal");
+    let (code, stdout, stderr) = calibrate(&file, &out, &["--every-axis"]);
+    assert_eq!(code, Some(0), "{stdout}\n{stderr}");
+    let mut taken_over = 0;
+    for (axis, _) in AXES {
+        let s = summary(&out.join(axis));
+        let (lssvm, table) = (cv_rms(&s, "LS-SVM"), cv_rms(&s, "board table"));
+        let b = &s["board"];
+        let (dev, limit) = (
+            b["f32_deviation_dph"].as_f64().unwrap(),
+            b["f32_limit_dph"].as_f64().unwrap(),
+        );
+        eprintln!("{axis}: CV rms LS-SVM {lssvm:.1}, table {table:.1} °/h; f32 {dev:.2e} (limit {limit:.2e})");
+        // The first table within the limit fitted 16 times worse on the x axis (CV rms 457
+        // against 29 °/h); the table's own fixed size and the bound's margin on the departure
+        // leave it up to twice the exact LS-SVM's.
+        assert!(
+            table < 2.5 * lssvm,
+            "{axis}: the board table's CV rms {table:.1} °/h against the LS-SVM's {lssvm:.1}"
+        );
+        assert!(
+            dev <= limit,
+            "{axis}: the model file's limit is not the one taken"
+        );
+        let notes = s["notes"].to_string();
+        taken_over += usize::from(notes.contains("taken all the same"));
+    }
+    assert!(
+        taken_over > 0,
+        "no axis needed a table over the f32 limit: the case this test is for did not arise"
+    );
 }
 
 /// One to two hours of a MEMS chamber cycle at 2 Hz with random bias, gain, curvature, dT/dt

@@ -115,6 +115,31 @@ fn board_note(tuned: &Tuned, board: &BoardChoice) -> Option<String> {
             board.refused.iter().map(|r| r.2).fold(0.0, f64::max)
         )
     };
+    if let Some(base) = board.limit_raised_from_dph {
+        return Some(format!(
+            "The {}-vector board table (σ = {:.3}, c = {:.3}) departs in f32 from its f64 model \
+             by {:.2e} °/h, over the limit of {:.1e}, and is taken all the same: its CV rms plus \
+             {m} times that departure (measured at a few hundred points of the trained range), \
+             {:.3e} + {m} × {:.2e} °/h, bounds what the f32 table scores and is below the CV rms of \
+             every point of the grid left to try, so any table within the limit would fit worse \
+             by more than this one departs. Its model file carries the raised limit, {:.2e} \
+             °/h{}.",
+            board.support_vectors,
+            board.sigma,
+            board.c,
+            board.f32_deviation_dph,
+            base,
+            board.cv_rms_dph,
+            board.f32_deviation_dph,
+            board.f32_limit_dph,
+            if board.refused.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", passed_over(board.refused.len()))
+            },
+            m = crate::board::DEPARTURE_MARGIN,
+        ));
+    }
     if let Some(r) = exact_refused {
         Some(format!(
             "At the LS-SVM's σ = {:.3}, c = {:.3} the {}-vector table's f32 evaluation departs \

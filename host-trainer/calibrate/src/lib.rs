@@ -69,6 +69,7 @@ pub use result::{
 };
 pub use stream::check_stream;
 
+pub use board::{pick_table, Picked, DEPARTURE_MARGIN};
 use cv::validation_of;
 use error::ensure;
 use stream::{cycle_labels, features_of, window_of, without_sensor_faults};

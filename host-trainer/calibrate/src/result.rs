@@ -56,8 +56,12 @@ pub struct BoardChoice {
     pub support_vectors: usize,
     /// |f32 − f64| of the table's correction over the trained range, °/h.
     pub f32_deviation_dph: f64,
-    /// The export limit it was held to, °/h.
+    /// The export limit it was held to, °/h (its own departure when it was taken over the
+    /// limit: `limit_raised_from_dph`).
     pub f32_limit_dph: f64,
+    /// The limit the table departs beyond, when every table within it would have scored
+    /// worse by more than the departure ([`crate::board::pick_table`]); None: within it.
+    pub limit_raised_from_dph: Option<f64>,
     /// Whether the table stores b − reference ([`rlg_train::export::folds_reference`]).
     pub reference_folded: bool,
     /// Points of the CV curve refused for f32 precision before this one, (σ, c, deviation).

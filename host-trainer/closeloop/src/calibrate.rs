@@ -71,7 +71,10 @@ pub fn diagnosed_row(
         let n = c.samples / c.train_block_s.max(1);
         protocol.block = c.train_block_s;
         protocol.validation = rlg_calibrate::blocked_within_a_cycle(n, c.train_block_s);
-        protocol.f32_limit_dph = c.board.f32_limit_dph;
+        protocol.f32_limit_dph = c
+            .board
+            .limit_raised_from_dph
+            .unwrap_or(c.board.f32_limit_dph);
     }
     let score = |inputs: &Inputs| match test {
         _ if one_cycle => train_and_cv(cal, inputs, &protocol, provenance),
@@ -102,7 +105,9 @@ pub fn diagnosed_row(
         return Ok(());
     }
     if one_cycle && protocol.f32_limit_dph > export::EXPORT_LIMIT_DPH {
-        aug.model.f32_limit_dph = Some(protocol.f32_limit_dph);
+        // Not below a limit the table was taken over (`rlg_calibrate::pick_table`).
+        let raised = aug.model.f32_limit_dph.unwrap_or(0.0);
+        aug.model.f32_limit_dph = Some(protocol.f32_limit_dph.max(raised));
     }
     aug.model.removes = c.options.remove;
     let table = diagnosed_table(&aug, c);

@@ -5,7 +5,7 @@
 use compensator_core::{Compensator, SensorLimits};
 use indicatif::ProgressBar;
 
-use rlg_calibrate::{CalibrateError, HeldOutScorer};
+use rlg_calibrate::{pick_table, CalibrateError, HeldOutScorer, Picked};
 use rlg_io::recording::Recording;
 use rlg_train::dataset::{self, RecordingSelection};
 use rlg_train::export;
@@ -162,7 +162,8 @@ fn fit(
     };
     // The board must evaluate the model within its f32 budget: large cancelling
     // coefficients (a large c on a wide kernel) lose it. The chosen (σ, c) is the tuned one
-    // if the board can evaluate it, else the best-scoring evaluated point it can.
+    // if the board can evaluate it, else the best-scoring evaluated point it can, or one
+    // whose departure costs less than that (`rlg_calibrate::pick_table`).
     let mut candidates: Vec<CvPoint> = std::iter::once(CvPoint {
         sigma: tuned.sigma,
         c: tuned.c,
@@ -172,23 +173,30 @@ fn fit(
     .filter(|p| p.cv_rms_dph.is_finite())
     .collect();
     candidates[1..].sort_by(|a, b| a.cv_rms_dph.total_cmp(&b.cv_rms_dph));
-    let mut chosen = None;
-    for p in candidates {
+    let limit = protocol.f32_limit_dph;
+    let picked = pick_table(candidates, |p| {
+        // A point the solver cannot train is passed over like one the board cannot evaluate.
         let Ok(model) = train(p.sigma, p.c) else {
-            continue;
+            return Ok((None, f64::INFINITY, limit));
         };
         let dev = export::f32_deviation_dph(&model)?;
-        if dev <= protocol.f32_limit_dph {
-            chosen = Some((p, model, dev));
-            break;
-        }
-    }
-    let (point, model, board_deviation_dph) = chosen.ok_or_else(|| {
-        CalibrateError::NoBoardTable(format!(
-            "no (sigma, c) of the grid gives a model the board evaluates within {:.0e} °/h",
-            protocol.f32_limit_dph
-        ))
+        Ok((Some(model), dev, limit))
     })?;
+    let Some(Picked {
+        point,
+        table: Some(mut model),
+        deviation_dph: board_deviation_dph,
+        over_limit,
+        ..
+    }) = picked
+    else {
+        return Err(CalibrateError::NoBoardTable(format!(
+            "no (sigma, c) of the grid gives a model the board evaluates within {limit:.0e} °/h"
+        )));
+    };
+    if over_limit {
+        model.f32_limit_dph = Some(rlg_calibrate::DEPARTURE_MARGIN * board_deviation_dph);
+    }
     Ok(Fitted {
         tuned,
         point,

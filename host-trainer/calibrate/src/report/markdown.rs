@@ -201,13 +201,19 @@ fn board(c: &Calibration) -> String {
     let _ = writeln!(
         s,
         "## Board table\n\nFixed-size LS-SVM, {} support vectors, σ = {:.4}, c = {:.4}; f32 \
-         evaluation of the correction within {:.2e} °/h of the f64 model (limit {:.1e}){}. \
+         evaluation of the correction within {:.2e} °/h of the f64 model ({}){}. \
          Files: `model.json`, `table.rs` (compensator-core), `table.h` (C).\n",
         b.support_vectors,
         b.sigma,
         b.c,
         b.f32_deviation_dph,
-        b.f32_limit_dph,
+        match b.limit_raised_from_dph {
+            Some(base) => format!(
+                "over the limit of {base:.1e}, which every table within it would cost more than: \
+                 see the notes"
+            ),
+            None => format!("limit {:.1e}", b.f32_limit_dph),
+        },
         if b.reference_folded {
             "; the table stores b − reference, so the board sums only the correction"
         } else {
