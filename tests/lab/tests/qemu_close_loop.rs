@@ -134,6 +134,9 @@ fn diagnosed_hysteresis_becomes_a_board_feature_that_runs_bit_for_bit() {
         );
         // Two f32 evaluations of one table, each held to its f32 limit of the f64 model.
         let limit = export::precision(&aug.model).unwrap().limit_dph;
-        assert!(worst <= limit, "{worst:e} against the table's limit {limit:e}");
+        assert!(
+            worst <= limit,
+            "{worst:e} against the table's limit {limit:e}"
+        );
     }
 }
