@@ -20,6 +20,23 @@ pub struct BenchLengthArgs {
     /// (the same samples over a longer span; 0: not run).
     #[arg(long, value_name = "DAYS", default_value_t = 30.0)]
     pub gap_days: f64,
+    /// Also write the tables to this file, e.g. a results file kept in the repository, after
+    /// a first line naming the command that wrote it.
+    #[arg(long, value_name = "FILE")]
+    pub results_md: Option<std::path::PathBuf>,
+}
+
+/// What the benchmark prints, kept for `--results-md`: each line is printed as it is
+/// measured (a 30-day diagnosis takes a minute), not at the end.
+#[derive(Default)]
+struct Out(String);
+
+impl Out {
+    fn line(&mut self, s: &str) {
+        println!("{s}");
+        self.0.push_str(s);
+        self.0.push('\n');
+    }
 }
 
 /// The process's peak resident memory so far, MB (Linux `VmHWM`; `None` elsewhere).
@@ -58,6 +75,10 @@ fn scenario(days: f64) -> anyhow::Result<rlg_simulate::Scenario> {
 
 /// Runs the benchmark and prints one row per length.
 pub fn run(a: &BenchLengthArgs) -> anyhow::Result<()> {
+    // Checked before the run, which takes minutes.
+    if let Some(p) = &a.results_md {
+        super::check_output_file(p, "--results-md")?;
+    }
     for d in &a.days {
         anyhow::ensure!(
             d.is_finite() && *d > 0.0 && *d <= 46.0,
@@ -69,8 +90,15 @@ pub fn run(a: &BenchLengthArgs) -> anyhow::Result<()> {
         "--gap-days {}: give a gap of 0 to 3650 days",
         a.gap_days
     );
-    println!(
-        "| record | samples | wall s | per day, s | peak memory of the diagnosis, MB | verdict |\n|---|---:|---:|---:|---:|---|"
+    let mut out = Out::default();
+    // The gap's rows first: after a long record the allocator keeps its pages, and the
+    // resident mark of a short diagnosis would count them.
+    if a.gap_days > 0.0 {
+        gap_rows(a, &mut out)?;
+        out.line("");
+    }
+    out.line(
+        "| record | samples | wall s | per day, s | peak memory of the diagnosis, MB | verdict |\n|---|---:|---:|---:|---:|---|",
     );
     let mut reference: Option<f64> = None;
     let lengths = std::iter::once(None).chain(a.days.iter().map(|d| Some(*d)));
@@ -92,7 +120,7 @@ pub fn run(a: &BenchLengthArgs) -> anyhow::Result<()> {
             format!(" ({:.2}× the 31 h record's)", per_day / r)
         });
         reference.get_or_insert(per_day);
-        println!(
+        out.line(&format!(
             "| {} {span_d:.1} days | {} | {wall:.1} | {per_day:.2}{ratio} | {} | {} |",
             if days.is_none() {
                 "shipped,"
@@ -106,17 +134,19 @@ pub fn run(a: &BenchLengthArgs) -> anyhow::Result<()> {
                 (None, _) => "—".into(),
             },
             serde_json::to_value(d.verdict)?.as_str().unwrap_or("?")
-        );
+        ));
     }
-    if a.gap_days > 0.0 {
-        gap_rows(a)?;
-    }
-    println!(
+    out.line(
         "\nPeak memory is the process's resident high-water mark during the diagnosis: reset \
          before it (Linux clear_refs), so it counts the recording held and what the allocator \
          kept from the simulation, not the simulation's own peak; \"with the simulation\" where \
-         the mark could not be reset."
+         the mark could not be reset. Wall times are of this machine's cores at the time; the \
+         ratios in the same run are what to compare.",
     );
+    if let Some(p) = &a.results_md {
+        let header = super::results::header(std::env::args(), &[("--results-md", "FILE")], None);
+        super::results::write(p, &header, &out.0)?;
+    }
     Ok(())
 }
 
@@ -136,9 +166,9 @@ fn timed(rec: rlg_io::recording::Recording) -> anyhow::Result<(f64, Option<f64>,
 
 /// The shipped record, then the same samples with its second half `--gap-days` later: the
 /// cost should follow the samples, not the span.
-fn gap_rows(a: &BenchLengthArgs) -> anyhow::Result<()> {
-    println!(
-        "\n| record | samples | span, days | wall s | × the record without the gap | peak memory, MB | verdict |\n|---|---:|---:|---:|---:|---:|---|"
+fn gap_rows(a: &BenchLengthArgs, out: &mut Out) -> anyhow::Result<()> {
+    out.line(
+        "| record | samples | span, days | wall s | × the record without the gap | peak memory, MB | verdict |\n|---|---:|---:|---:|---:|---:|---|",
     );
     let mut reference = None;
     for (name, gap_d) in [("shipped", 0.0), ("shipped, gap in the middle", a.gap_days)] {
@@ -153,10 +183,10 @@ fn gap_rows(a: &BenchLengthArgs) -> anyhow::Result<()> {
         let (wall, mb, verdict) = timed(r)?;
         let ratio = reference.map_or_else(|| "1".to_string(), |w: f64| format!("{:.2}", wall / w));
         reference.get_or_insert(wall);
-        println!(
+        out.line(&format!(
             "| {name} | {samples} | {span_d:.1} | {wall:.1} | {ratio} | {} | {verdict} |",
             mb.map_or_else(|| "—".to_string(), |m| format!("{m:.0}"))
-        );
+        ));
     }
     Ok(())
 }
