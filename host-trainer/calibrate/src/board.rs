@@ -156,8 +156,9 @@ pub(crate) fn choose_board(
 
 /// The departure of a table's f32 evaluation is measured at its support vectors and a few
 /// hundred quasi-random points of the trained box (`rlg_train::export::precision`); between
-/// them it can be larger (a fifth larger on a 4 000-step sweep of a static MEMS table). A
-/// table taken over its limit is judged, and held, at this multiple of the measured figure.
+/// them it can be larger (a dense temperature sweep of a static MEMS table through the board's
+/// `Compensator` finds it so). A table taken over its limit is judged, and held, at this
+/// multiple of the measured figure.
 pub const DEPARTURE_MARGIN: f64 = 2.0;
 
 /// The table [`pick_table`] chose, its f32 departure and limit, and the points passed over.
@@ -198,19 +199,18 @@ impl Picked<ModelFile> {
 /// limit whose CV rms plus [`DEPARTURE_MARGIN`] times its departure is the least of those
 /// tried, once that sum is below the CV rms of every point still to try. A departure d of the
 /// f32 evaluation adds at most d to the rms of what the table leaves, so CV rms + d bounds
-/// what the f32 table scores: a MEMS
-/// gyro's thousands of °/h of bias make the kernel sums of every well-fitting σ, c cancel in
-/// f32 by a few °/h, and the first table within a limit of a fraction of a °/h can fit ten
-/// times worse than the host model (a c of 1 on a bias moving 100 °/h per °C). Within the
-/// limit, the departure is negligible by the limit's definition and the CV order decides as
-/// before. `None`: nothing tried had a finite departure.
+/// what the f32 table scores: a MEMS gyro's thousands of °/h of bias make the kernel sums of
+/// every well-fitting σ, c cancel in f32 by a few °/h, and the first table within a limit of
+/// a fraction of a °/h can fit ten times worse than the host model (a c of 1 on a bias moving
+/// 100 °/h per °C). Within the limit, the departure is negligible by the limit's definition
+/// and the CV order decides. `None`: nothing tried had a finite departure.
 pub fn pick_table<T>(
     order: Vec<CvPoint>,
     mut build: impl FnMut(CvPoint) -> Result<(T, f64, f64), CalibrateError>,
 ) -> Result<Option<Picked<T>>, CalibrateError> {
     let mut refused = Vec::new();
-    // The best table over its limit: (CV rms + departure, point, table, departure, limit,
-    // its entry in `refused`).
+    // The best table over its limit: (its bound, point, table, departure, limit, its entry
+    // in `refused`).
     let mut over: Option<(f64, CvPoint, T, f64, f64, usize)> = None;
     for p in order {
         if over.as_ref().is_some_and(|o| p.cv_rms_dph >= o.0) {
