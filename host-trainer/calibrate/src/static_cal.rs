@@ -446,25 +446,21 @@ fn choose_table(
         )?;
         model.removes = opts.remove;
         let prec = export::precision(&model)?;
-        Ok(((model, prec), prec.deviation_dph, prec.limit_dph))
+        Ok((model, prec.deviation_dph, prec.limit_dph))
     })?;
-    let Some(picked) = picked else {
+    let Some(mut picked) = picked else {
         return Err(CalibrateError::NoBoardTable(format!(
             "no (σ, c) of the grid gives a board table within the f32 limit of {:.0e} °/h, nor \
              one whose departure is finite; lower --c-min",
             export::EXPORT_LIMIT_DPH,
         )));
     };
-    let (mut model, mut precision) = picked.table;
-    let raised_from = picked.over_limit.then(|| {
-        let carried = crate::board::DEPARTURE_MARGIN * picked.deviation_dph;
-        model.f32_limit_dph = Some(carried);
-        precision.limit_dph = carried;
-        picked.limit_dph
-    });
+    let raised_from = picked.raise_limit();
+    // Evaluated again under the limit the table now carries (the same departure).
+    let precision = export::precision(&picked.table)?;
     Ok(Table {
         point: picked.point,
-        model,
+        model: picked.table,
         precision,
         refused: picked.refused,
         raised_from,
