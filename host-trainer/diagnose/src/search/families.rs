@@ -81,7 +81,10 @@ pub(super) fn best_points(
         }
         *i = j;
     }
-    best.sort_by(|a, b| s.dbic[a.1].total_cmp(&s.dbic[b.1]));
+    best.sort_by(|a, b| {
+        sig.scaled(a.0, s.dbic[a.1])
+            .total_cmp(&sig.scaled(b.0, s.dbic[b.1]))
+    });
     best
 }
 
@@ -238,7 +241,7 @@ impl Judge<'_> {
                 score.cycle_gain = fit.cycle_gain;
                 score.p_value_rrw = self.weigh(fit, &mut out, &mut once)?;
             }
-            score.p_value = self.sig.candidate_p(dbic, score.p_value_rrw);
+            score.p_value = self.sig.candidate_p(f, dbic, score.p_value_rrw);
             out.scores.push(score);
         }
         Ok(out)
@@ -438,7 +441,7 @@ impl Judge<'_> {
         }
         out.counted |= separable;
         if separable {
-            out.p_counted = out.p_counted.min(self.sig.candidate_p(dbic, p_slow));
+            out.p_counted = out.p_counted.min(self.sig.candidate_p(f, dbic, p_slow));
         }
         if separable && candidate {
             match step_pref {

@@ -42,9 +42,13 @@ impl Significance {
         // The record's p-value in each test alone: the other test's breaks ties between the
         // two (see `Nulls::either_p`).
         let structure_alone = nulls.structure.p_value(s.gen_dbic);
-        let best_alone = nulls
-            .best
-            .p_value(s.dbic.iter().copied().fold(f64::INFINITY, f64::min));
+        let best_alone = nulls.best.p_value(
+            s.dbic
+                .iter()
+                .zip(scanned.points)
+                .map(|(d, p)| d - nulls.offset[p.family.index()])
+                .fold(f64::INFINITY, f64::min),
+        );
         // Each test at the level that gives the two together false-alarm probability α.
         let (best_threshold, structure_threshold) = (
             nulls.threshold(opts.alpha, Test::Best, structure_alone),
@@ -60,9 +64,14 @@ impl Significance {
         }
     }
 
-    /// The ΔBIC threshold of family `f` (the bootstrap's, one for all families at present).
-    pub(super) fn threshold(&self, _f: Family) -> f64 {
-        self.best_threshold
+    /// The ΔBIC threshold of family `f`: the best-candidate test's, on the family's scale.
+    pub(super) fn threshold(&self, f: Family) -> f64 {
+        self.best_threshold + self.nulls.offset[f.index()]
+    }
+
+    /// A family's ΔBIC on the best-candidate test's common scale (lower = more significant).
+    pub(super) fn scaled(&self, f: Family, dbic: f64) -> f64 {
+        dbic - self.nulls.offset[f.index()]
     }
 
     /// `p` raised to the ramp's p-value where a ramp was preferred to rate random walk.
@@ -73,11 +82,11 @@ impl Significance {
     /// A candidate's p-value on the verdict's scale: its ΔBIC `dbic` against the best
     /// candidate's null, adjusted for either test, at least its p-value under the record's
     /// slow noise `p_slow` where that was asked.
-    pub(super) fn candidate_p(&self, dbic: f64, p_slow: Option<f64>) -> f64 {
+    pub(super) fn candidate_p(&self, f: Family, dbic: f64, p_slow: Option<f64>) -> f64 {
         self.floor(
             self.nulls
                 .either_p(
-                    self.nulls.best.p_value(dbic),
+                    self.nulls.best.p_value(self.scaled(f, dbic)),
                     Test::Best,
                     self.structure_alone,
                 )
