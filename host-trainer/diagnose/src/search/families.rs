@@ -81,10 +81,11 @@ pub(super) fn best_points(
         }
         *i = j;
     }
-    best.sort_by(|a, b| {
-        sig.scaled(a.0, s.dbic[a.1])
-            .total_cmp(&sig.scaled(b.0, s.dbic[b.1]))
-    });
+    // In order of fit, not of significance: each family is significant on its own tail,
+    // but which of two significant families describes the record is the one that fits it
+    // better (ordered on their tails, a family of few points, a gradient's lag, would take
+    // a sensor's lag and a coarse reading's steps from the families that fit them).
+    best.sort_by(|a, b| s.dbic[a.1].total_cmp(&s.dbic[b.1]));
     best
 }
 

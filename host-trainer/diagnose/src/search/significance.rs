@@ -70,7 +70,7 @@ impl Significance {
     }
 
     /// A family's ΔBIC on the best-candidate test's common scale (lower = more significant).
-    pub(super) fn scaled(&self, f: Family, dbic: f64) -> f64 {
+    fn scaled(&self, f: Family, dbic: f64) -> f64 {
         dbic - self.nulls.offset[f.index()]
     }
 
