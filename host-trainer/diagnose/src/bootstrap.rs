@@ -1,9 +1,9 @@
 //! Significance by a parametric bootstrap of the fitted gyro noise model: the null
 //! distributions of the best candidate over all families, each family's ΔBIC on its own
-//! tail (the look-elsewhere effect included), of
-//! each family alone and of the generic-structure test, and each replicate's ranks in the two
-//! tests, from which the verdict's false-alarm probability (that of the smaller of the two
-//! tests' p-values) follows.
+//! tail (the look-elsewhere effect included), of each family alone and of the
+//! generic-structure test, and each replicate's ranks in the two tests, from which the
+//! verdict's false-alarm probability (that of the smaller of the two tests' p-values)
+//! follows.
 
 use rayon::prelude::*;
 
@@ -99,7 +99,8 @@ pub(super) enum Test {
 
 /// The bootstrap's null distributions.
 pub(super) struct Nulls {
-    /// Best ΔBIC over every family and grid point: the test's.
+    /// Best candidate over every family and grid point (each family's ΔBIC less its
+    /// offset): the test's.
     pub(super) best: NullDist,
     /// Best ΔBIC within each family (as `Family::ALL`): what the test would be if that family
     /// alone were tested, its own scan the only look-elsewhere: its offset is read from it.
