@@ -267,6 +267,12 @@ pub struct Evidence {
     /// refitted with rate random walk (the structure test needs both at α).
     #[serde(default)]
     pub structure_p_value: f64,
+    /// Whether the generic structure test was significant under white noise and bias
+    /// instability but not under the record's noise refitted with rate random walk (slow
+    /// drift of the record's own noise, not structure). A later pass, after a finding, then
+    /// asks its generic test under rate random walk too.
+    #[serde(default)]
+    pub structure_slow_drift: bool,
     /// Best ΔBIC of each candidate family (most negative first) with its held-out gain
     /// (reduction of the held-out sum of squares of 100 s means, (°/h)²).
     pub candidates: Vec<CandidateScore>,
@@ -436,7 +442,7 @@ pub fn diagnose<'a>(
         (prepare::prepare(rec)?, None)
     };
     let cache = search::ColumnCache::default();
-    let d = search::run(&prep, model, opts, &cache, true)?;
+    let d = search::run(&prep, model, opts, &cache, search::Pass::First)?;
     let (prep, cache, mut d) = match rec {
         Some(rec) if phase_worth(&prep, &d) => median_phase(&rec, model, opts, (prep, cache, d))?,
         _ => (prep, cache, d),
@@ -461,7 +467,10 @@ pub fn diagnose<'a>(
             break;
         };
         current.terms.push(term);
-        let next = search::run(&prep, &current, opts, &cache, false)?;
+        let pass = search::Pass::Later {
+            slow_drift: d.evidence.structure_slow_drift,
+        };
+        let next = search::run(&prep, &current, opts, &cache, pass)?;
         let structure_p = next.evidence.structure_p_value;
         let unexplained = next.series.unexplained_dph;
         let shape = next.evidence.unexplained;
@@ -552,7 +561,7 @@ fn median_phase(
             continue;
         };
         let cache = search::ColumnCache::default();
-        let d = search::run(&prep, model, opts, &cache, true)?;
+        let d = search::run(&prep, model, opts, &cache, search::Pass::First)?;
         runs.push((shift, (prep, cache, d)));
     }
     let ps: Vec<String> = runs

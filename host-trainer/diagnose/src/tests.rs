@@ -793,7 +793,7 @@ fn a_verdict_near_its_threshold_is_decided_over_block_phases() {
     let first = |shift: usize| {
         let prep = prepare::prepare_shifted(&sim.recording, shift).expect("prepares");
         let cache = search::ColumnCache::default();
-        let d = search::run(&prep, &model, &opts, &cache, true).expect("diagnoses");
+        let d = search::run(&prep, &model, &opts, &cache, search::Pass::First).expect("diagnoses");
         (prep, cache, d)
     };
     let p0 = first(0);

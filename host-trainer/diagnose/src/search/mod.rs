@@ -41,16 +41,30 @@ pub(crate) use cache::ColumnCache;
 pub(crate) const UNEXPLAINED_LOOKS: &str = "what no library term explains looks like ";
 pub(crate) use step::step_times;
 
-/// One pass of the search. `first`: the pass on the user's model; the later passes (after a
-/// finding) ask whether the findings account for the structure, and there the generic test
-/// keeps its one null unless a slow function of time fails the slow-drift check (see
-/// [`slow::structure_under_rrw`]).
+/// Which pass of the search a run is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Pass {
+    /// The pass on the user's model.
+    First,
+    /// A pass after a finding, the term added to the model: it asks whether the findings
+    /// account for the structure. `slow_drift`: the first pass found the generic structure
+    /// to be the record's own slow noise (significant under white + B, not under rate random
+    /// walk); a finding does not change that noise, so this pass asks under both too.
+    Later {
+        /// See [`Evidence::structure_slow_drift`](crate::Evidence::structure_slow_drift).
+        slow_drift: bool,
+    },
+}
+
+/// One pass of the search. On a later pass the generic test keeps its one null unless a
+/// slow function of time fails the slow-drift check or the first pass found the generic
+/// structure to be slow drift (see [`Pass`] and [`slow::structure_under_rrw`]).
 pub(crate) fn run(
     prep: &Prepared,
     model: &PhysicsModel,
     opts: &Options,
     cache: &ColumnCache,
-    first: bool,
+    pass: Pass,
 ) -> Result<Diagnosis, DiagnoseError> {
     let base = Baseline::fit(prep, model)?;
     let mut grid = grid::Grid::build(&base, cache)?;
@@ -87,7 +101,7 @@ pub(crate) fn run(
         scan: &scan,
         noise: &noise,
         sig: &sig,
-        reasked: first || !judged.slow_drift.is_empty(),
+        reasked: pass != Pass::Later { slow_drift: false } || !judged.slow_drift.is_empty(),
     };
     let structure = report::structure_test(&question, opts);
     notes.extend(structure.note.iter().cloned());
@@ -124,6 +138,7 @@ pub(crate) fn run(
             structure_threshold: sig.structure_threshold,
             structure_delta_bic: scan.gen_dbic,
             structure_p_value: structure.p_value,
+            structure_slow_drift: structure.note.is_some(),
             step: judged.step,
             rate_ramp: noise.ramp.clone(),
             unexplained: shape,

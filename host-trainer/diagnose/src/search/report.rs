@@ -58,7 +58,8 @@ pub(super) struct StructureQuestion<'a> {
     /// Whether it is asked again under rate random walk: on the first pass, or where a slow
     /// function of time has just failed the slow-drift check (the drift it saw is then in
     /// the time chunks too, and under white + B alone it passed as structure the findings
-    /// leave behind). A later pass otherwise keeps the test's one null.
+    /// leave behind), or where the first pass found the generic structure to be slow drift
+    /// ([`super::Pass::Later`]). A later pass otherwise keeps the test's one null.
     pub(super) reasked: bool,
 }
 

@@ -1042,3 +1042,25 @@ fn a_figure_names_the_variant_it_draws() {
     };
     assert_eq!(v.describe(), "mismatched set, two effects, coarse reading");
 }
+
+/// A noise level that rises with temperature (seed 1, case 105, D 5.1) on a record whose
+/// rate random walk makes the generic test's time chunks significant under white noise and
+/// bias instability alone: the first pass finds that to be the record's own slow drift. After
+/// the finding a later pass asks the generic test under rate random walk too (the finding
+/// does not change the record's noise), so the drift does not overturn the finding as
+/// structure no term explains.
+#[test]
+fn a_finding_is_not_overturned_by_the_slow_drift_the_first_pass_saw() {
+    let model = PhysicsModel::paper();
+    let case = build_case(105, Kind::Library(Family::Heteroscedastic), 1, &model).expect("case");
+    let d = rlg_diagnose::diagnose(&case.recording, &model, &rlg_diagnose::Options::default())
+        .expect("diagnoses");
+    assert!(d.evidence.structure_slow_drift, "{:#?}", d.evidence);
+    assert_eq!(
+        d.verdict,
+        rlg_diagnose::Verdict::MissingPhysics,
+        "{:#?}",
+        d.evidence
+    );
+    assert_eq!(d.findings[0].mechanism.name(), "heteroscedastic");
+}
