@@ -95,6 +95,7 @@ mod tests {
             delta_bic: -9.0,
             improved: fig.clone(),
             explanation: String::new(),
+            close_alternatives: Vec::new(),
         };
         explain(Family::Backscatter, &finding, (-3.0, 100.0), &fig)
     }

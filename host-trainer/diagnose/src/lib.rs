@@ -165,7 +165,17 @@ pub struct Finding {
     pub improved: Figures,
     /// Plain-words explanation.
     pub explanation: String,
+    /// Other families, significant and lowering the held-out residual too, whose ΔBIC is
+    /// within [`CLOSE_DELTA_BIC`] of this one's: the record does not tell them apart well,
+    /// and a finding with such an alternative names the wrong mechanism far more often.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub close_alternatives: Vec<Mechanism>,
 }
+
+/// A finding's rival within this ΔBIC is a close alternative: on the BIC scale (2 ln of the
+/// Bayes factor) a difference under 6 is less than strong evidence for one model over the
+/// other (Kass & Raftery 1995, J. Am. Stat. Assoc. 90, 773).
+pub const CLOSE_DELTA_BIC: f64 = 6.0;
 
 /// The verdict.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

@@ -115,7 +115,12 @@ pub(crate) fn run(
         )
     }));
     let findings = match &judged.finding {
-        Some(found) => vec![report::finding(found, &judge)?],
+        Some(found) => {
+            let mut finding = report::finding(found, &judge)?;
+            finding.close_alternatives = close_alternatives(&judged.scores, &finding, opts);
+            notes.extend(report::close_note(&judged.scores, &finding));
+            vec![finding]
+        }
         None => Vec::new(),
     };
     Ok(Diagnosis {
@@ -153,4 +158,23 @@ pub(crate) fn run(
             ..BlockSeries::default()
         },
     })
+}
+
+/// The families beside `finding` that are significant at α, lower the held-out residual and
+/// fit within [`crate::CLOSE_DELTA_BIC`] of it.
+fn close_alternatives(
+    scores: &[crate::CandidateScore],
+    finding: &crate::Finding,
+    opts: &Options,
+) -> Vec<rlg_physics::Mechanism> {
+    scores
+        .iter()
+        .filter(|c| {
+            c.mechanism != finding.mechanism
+                && c.p_value <= opts.alpha
+                && c.heldout_gain > 0.0
+                && c.delta_bic - finding.delta_bic < crate::CLOSE_DELTA_BIC
+        })
+        .map(|c| c.mechanism)
+        .collect()
 }

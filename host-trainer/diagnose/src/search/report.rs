@@ -16,7 +16,7 @@ use crate::locate::{moving_average, peak_mask, spans};
 use crate::noise::replicates::{replicate_rng, simulate_block_means};
 use crate::scan::{Generic, Scan};
 use crate::score::{nonlinear_of, ModelColumns};
-use crate::{DiagnoseError, Finding, Options, Span, Verdict};
+use crate::{CandidateScore, DiagnoseError, Finding, Options, Span, Verdict};
 
 /// Moving average (blocks) and threshold (σ of that average under the noise model) that
 /// mark a located span of the baseline residual.
@@ -138,6 +138,7 @@ pub(super) fn finding(found: &Fitted, judge: &Judge<'_>) -> Result<Finding, Diag
         delta_bic: judge.scanned.scan.dbic[i],
         improved: found.heldout.figures.clone(),
         explanation: String::new(),
+        close_alternatives: Vec::new(),
     };
     finding.explanation = explain(
         f,
@@ -158,4 +159,36 @@ pub(super) fn verdict(findings: &[Finding], significant: bool) -> Verdict {
     } else {
         Verdict::Consistent
     }
+}
+
+/// The note on a finding's close alternatives, each with its ΔBIC and held-out gain beside
+/// the finding's.
+pub(super) fn close_note(scores: &[CandidateScore], finding: &Finding) -> Option<String> {
+    let score = |m| scores.iter().find(|c| c.mechanism == m);
+    let own = score(finding.mechanism)?;
+    let rivals: Vec<String> = finding
+        .close_alternatives
+        .iter()
+        .filter_map(|&m| score(m))
+        .map(|c| {
+            format!(
+                "{} (ΔBIC {:.1}, held-out gain {:.2e} (°/h)²)",
+                c.mechanism.name(),
+                c.delta_bic,
+                c.heldout_gain
+            )
+        })
+        .collect();
+    (!rivals.is_empty()).then(|| {
+        format!(
+            "{} (ΔBIC {:.1}, held-out gain {:.2e} (°/h)²) is the finding, but {} fits nearly as \
+             well: a ΔBIC difference under {} is less than strong evidence, so this record does \
+             not tell them apart well",
+            finding.mechanism.name(),
+            own.delta_bic,
+            own.heldout_gain,
+            rivals.join(" and "),
+            crate::CLOSE_DELTA_BIC
+        )
+    })
 }

@@ -1064,3 +1064,40 @@ fn a_finding_is_not_overturned_by_the_slow_drift_the_first_pass_saw() {
     );
     assert_eq!(d.findings[0].mechanism.name(), "heteroscedastic");
 }
+
+/// A sensor's lag at D 5.7 (seed 1, case 5) that a gradient's lag fits about as well (ΔBIC
+/// within 6 of each other, both lowering the held-out residual): whichever is the finding,
+/// the other is named as its close alternative, and a note says the record does not tell
+/// them apart well.
+#[test]
+fn a_near_tie_names_the_close_alternative() {
+    let model = PhysicsModel::paper();
+    let case = build_case(5, Kind::Library(Family::SensorLag), 1, &model).expect("case");
+    let d = rlg_diagnose::diagnose(&case.recording, &model, &rlg_diagnose::Options::default())
+        .expect("diagnoses");
+    let f = d.findings.first().expect("a finding");
+    let named: Vec<&str> = std::iter::once(f.mechanism)
+        .chain(f.close_alternatives.iter().copied())
+        .map(|m| m.name())
+        .collect();
+    assert!(named.contains(&"sensor_lag"), "{named:?}");
+    assert!(named.contains(&"gradient_lag"), "{named:?}");
+    for m in &f.close_alternatives {
+        let c = d
+            .evidence
+            .candidates
+            .iter()
+            .find(|c| c.mechanism == *m)
+            .expect("scored");
+        assert!(c.delta_bic - f.delta_bic < rlg_diagnose::CLOSE_DELTA_BIC);
+        assert!(c.heldout_gain > 0.0 && c.p_value <= rlg_diagnose::Options::default().alpha);
+    }
+    assert!(
+        d.evidence
+            .notes
+            .iter()
+            .any(|n| n.contains("fits nearly as well")),
+        "{:?}",
+        d.evidence.notes
+    );
+}
