@@ -181,13 +181,14 @@ pub(super) fn close_note(scores: &[CandidateScore], finding: &Finding) -> Option
         .collect();
     (!rivals.is_empty()).then(|| {
         format!(
-            "{} (ΔBIC {:.1}, held-out gain {:.2e} (°/h)²) is the finding, but {} fits nearly as \
+            "{} (ΔBIC {:.1}, held-out gain {:.2e} (°/h)²) is the finding, but {} {} nearly as \
              well: a ΔBIC difference under {} is less than strong evidence, so this record does \
              not tell them apart well",
             finding.mechanism.name(),
             own.delta_bic,
             own.heldout_gain,
             rivals.join(" and "),
+            if rivals.len() == 1 { "fits" } else { "fit" },
             crate::CLOSE_DELTA_BIC
         )
     })

@@ -1096,7 +1096,7 @@ fn a_near_tie_names_the_close_alternative() {
         d.evidence
             .notes
             .iter()
-            .any(|n| n.contains("fits nearly as well")),
+            .any(|n| n.contains("nearly as well") && n.contains("tell them apart")),
         "{:?}",
         d.evidence.notes
     );
