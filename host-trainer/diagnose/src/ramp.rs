@@ -13,7 +13,9 @@
 //! statistic has a p-value of at most α under K, is less probable under K than under R, and
 //! the white + B model beside the ramp passes the Allan check itself. The aging candidate
 //! is then tested against white + B as on any other record, and every p-value of the
-//! diagnosis is at least the one under K: each rests on the choice.
+//! diagnosis is at least the one under K: each rests on the choice. Where white + B beside
+//! the ramp fails that check, the ramp is asked again beside white + B + K refitted with it
+//! (a drift on a record with slow noise of its own), and aging is tested against that.
 //!
 //! The same statistic, with a slow function of time in the ramp's place (aging's ramp, a
 //! slow period's two columns, a warm-up's decay), is the search's check that such a finding
@@ -47,9 +49,19 @@ pub(crate) struct BlockRecord<'a> {
 impl BlockRecord<'_> {
     /// REML on the baseline beside `extra` columns, white + B (see [`reml_noise`]).
     fn white_and_b_beside(&self, extra: &[Vec<f64>]) -> Option<(Vec<Vec<f64>>, NoiseParams)> {
+        self.noise_beside(extra, false)
+    }
+
+    /// REML on the baseline beside `extra` columns, white + B, and rate random walk where
+    /// `with_rrw`.
+    fn noise_beside(
+        &self,
+        extra: &[Vec<f64>],
+        with_rrw: bool,
+    ) -> Option<(Vec<Vec<f64>>, NoiseParams)> {
         let mut with = self.base_b.to_vec();
         with.extend(extra.iter().cloned());
-        let g = reml_noise(&with, self.y_b, self.block, self.dt_s, false)?;
+        let g = reml_noise(&with, self.y_b, self.block, self.dt_s, with_rrw)?;
         Some((with, g))
     }
 }
@@ -182,8 +194,20 @@ impl<'a> Versus<'a> {
         rrw: &'a NoiseParams,
         draws: &Draws,
     ) -> Option<Self> {
+        Self::beside(rec, extra, rrw, draws, false)
+    }
+
+    /// [`Versus::new`] with the noise beside `extra` refitted with rate random walk too
+    /// where `with_rrw`: the nested alternative, a slow effect and the record's slow noise.
+    fn beside(
+        rec: &BlockRecord<'_>,
+        extra: &'a [Vec<f64>],
+        rrw: &'a NoiseParams,
+        draws: &Draws,
+        with_rrw: bool,
+    ) -> Option<Self> {
         let (block, dt_s, y_b) = (rec.block, rec.dt_s, rec.y_b);
-        let (with, extra_noise) = rec.white_and_b_beside(extra)?;
+        let (with, extra_noise) = rec.noise_beside(extra, with_rrw)?;
         let k_model = Fixed::new(rrw, rec.base_b, block, dt_s)?;
         let r_model = Fixed::new(&extra_noise, &with, block, dt_s)?;
         let (r_obs, r_coef) = r_model.fit(y_b)?;
@@ -235,8 +259,12 @@ impl<'a> Versus<'a> {
 }
 
 /// `Some` when a ramp beside the baseline of `rec` explains its block means better than the
-/// rate random walk of `rrw`, tested at false-alarm probability `alpha` (see the module
-/// doc); `ramp_b` is the ramp's block column.
+/// rate random walk of `rrw` alone, tested at false-alarm probability `alpha` (see the module
+/// doc); `ramp_b` is the ramp's block column. The ramp is asked beside white + B first, then
+/// beside white + B + K refitted with it: a record with slow noise of its own and a drift
+/// too fails white + B either way, and with K fitted on the baseline alone, K takes the
+/// drift (several times the record's own K on aging records of the benchmark) and the aging
+/// test whitened by it has no power left.
 pub(crate) fn ramp_instead_of_rrw(
     rec: &BlockRecord<'_>,
     ramp_b: &[f64],
@@ -244,9 +272,23 @@ pub(crate) fn ramp_instead_of_rrw(
     draws: &Draws,
     alpha: f64,
 ) -> Option<RampChoice> {
+    ramp_beside(rec, ramp_b, rrw, draws, alpha, false)
+        .or_else(|| ramp_beside(rec, ramp_b, rrw, draws, alpha, true))
+}
+
+/// [`ramp_instead_of_rrw`] with the noise beside the ramp white + B, or white + B + K where
+/// `with_rrw`.
+fn ramp_beside(
+    rec: &BlockRecord<'_>,
+    ramp_b: &[f64],
+    rrw: &NoiseParams,
+    draws: &Draws,
+    alpha: f64,
+    with_rrw: bool,
+) -> Option<RampChoice> {
     let (base_b, y_b, block, dt_s) = (rec.base_b, rec.y_b, rec.block, rec.dt_s);
     let extra = [ramp_b.to_vec()];
-    let v = Versus::new(rec, &extra, rrw, draws)?;
+    let v = Versus::beside(rec, &extra, rrw, draws, with_rrw)?;
     if v.t_obs <= 0.0 {
         return None;
     }
@@ -391,6 +433,22 @@ mod tests {
         }
     }
 
+    /// A drift of 6e-2 °/h per day on white + B + rate random walk (K = 1.5e-3 °/h/√h):
+    /// white + B beside the ramp fails its Allan check (the record's own K is still there),
+    /// and the ramp is preferred beside K refitted with it.
+    #[test]
+    fn a_drift_on_rate_random_walk_is_a_ramp_beside_it() {
+        let p = NoiseParams {
+            rrw_dph_per_rt_h: 1.5e-3,
+            ..white_b()
+        };
+        for seed in 1..=3 {
+            let c = case(&p, 6e-2, seed).expect("the ramp is preferred");
+            assert!(c.p_rrw <= 0.02 && c.p_rrw < c.p_ramp, "{c:?}");
+            assert!(c.gyro.rrw_dph_per_rt_h > 0.0, "{c:?}");
+        }
+    }
+
     /// The slow check's p-value of a ramp: at most α on a drift of 5e-3 °/h per day over
     /// white + B, and above α on rate random walk with no drift in at least nine of ten
     /// records (an α = 2 % test).
@@ -477,15 +535,16 @@ mod tests {
         );
     }
 
-    /// Rate random walk with no drift: its wander is not taken for a ramp (an α = 2 % test,
-    /// so at most one of ten records may be).
+    /// Rate random walk with no drift: its wander is not taken for a ramp, beside white + B
+    /// or beside K refitted with it (two α = 2 % tests asked in turn: at most 4 of 40
+    /// records, exceeded with probability 0.02 where the two together are at 4 %).
     #[test]
     fn rate_random_walk_is_not_a_ramp() {
         let p = NoiseParams {
             rrw_dph_per_rt_h: 5e-4,
             ..white_b()
         };
-        let taken: Vec<u64> = (1..=10).filter(|&s| case(&p, 0.0, s).is_some()).collect();
-        assert!(taken.len() <= 1, "taken as a ramp: seeds {taken:?}");
+        let taken: Vec<u64> = (1..=40).filter(|&s| case(&p, 0.0, s).is_some()).collect();
+        assert!(taken.len() <= 4, "taken as a ramp: seeds {taken:?}");
     }
 }

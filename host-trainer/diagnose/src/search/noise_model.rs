@@ -175,14 +175,26 @@ fn slow_term(
     let ramp =
         aging.and_then(|r| ramp_instead_of_rrw(&base.block_record(), r, &rrw, &draws, opts.alpha));
     if let Some(r) = ramp {
+        let beside = if r.gyro.rrw_dph_per_rt_h > 0.0 {
+            format!(
+                "white + B + K (K = {:.2e} °/h/√h) fitted beside a ramp",
+                r.gyro.rrw_dph_per_rt_h
+            )
+        } else {
+            "white + B fitted beside a ramp".to_string()
+        };
+        let alone = if rrw.rrw_dph_per_rt_h > 0.0 {
+            format!("rate random walk (K = {:.2e} °/h/√h)", rrw.rrw_dph_per_rt_h)
+        } else {
+            "the noise refitted with rate random walk allowed (its likeliest K is 0)".to_string()
+        };
         let note = format!(
             "the residual's Allan deviation departs from white noise and bias \
              instability (p = {p_wb:.3}); a rate ramp explains the departure \
-             better than rate random walk (K = {:.2e} °/h/√h; the record's \
-             likelihood ratio has probability {:.3} under rate random walk and \
-             {:.3} under the ramp): the noise model is white + B fitted beside a \
-             ramp, and aging is tested against it",
-            rrw.rrw_dph_per_rt_h, r.p_rrw, r.p_ramp
+             better than {alone} (the record's likelihood ratio has probability \
+             {:.3} under that noise and {:.3} under the ramp): the noise model is \
+             {beside}, and aging is tested against it",
+            r.p_rrw, r.p_ramp
         );
         let noise = FittedNoise {
             ramp: Some(RampEvidence {
