@@ -9,6 +9,7 @@ use std::collections::BTreeMap;
 use rlg_physics::Term;
 
 use super::cache::ColumnCache;
+use super::line::{line_ratio, LINE_RATIO};
 use super::noise_model::FittedNoise;
 use super::significance::Significance;
 use super::slow::{slow_time_only, SlowDrift, SLOW_PERIOD_OF_RECORD};
@@ -180,6 +181,10 @@ pub(super) struct Judged {
     /// slow noise (the noise model failed its check, and they have no cycle-by-cycle
     /// evidence).
     untestable: Vec<Family>,
+    /// Significant families that describe the record's structure by what it is not caused
+    /// by: a noise level in time, a period of the temperature's own (not close
+    /// alternatives to a finding either).
+    pub(super) unattributable: Vec<Family>,
     /// Slow functions of time significant under white + B but not under rate random walk.
     pub(super) slow_drift: Vec<SlowDrift>,
     /// Whether a significant family counts towards `unexplained_structure`.
@@ -210,6 +215,7 @@ impl Judge<'_> {
             finding: None,
             step: None,
             untestable: Vec::new(),
+            unattributable: Vec::new(),
             slow_drift: Vec::new(),
             counted: false,
             p_counted: 1.0,
@@ -389,7 +395,14 @@ impl Judge<'_> {
         // gain: a noise level that changes in time and that a temperature quadratic does not
         // predict is not structure of the bias either.
         let in_time = f == Family::Heteroscedastic && !self.noise_scale_with_temperature(out);
-        let separable = separable && !in_time;
+        // A period in time where the temperature oscillates at that period is the
+        // temperature's as much: the thermal families weigh it, not `periodic`.
+        let in_temperature = f == Family::Periodic && self.period_of_temperature(&fit.term, out);
+        let unattributable = in_time || in_temperature;
+        if unattributable {
+            out.unattributable.push(f);
+        }
+        let separable = separable && !unattributable;
         // The cycle-by-cycle gain is required only where the noise model is not trusted:
         // with two cycles each is predicted from one, which loses real hysteresis near the
         // detection threshold that the bootstrap finds clearly.
@@ -437,7 +450,7 @@ impl Judge<'_> {
             });
         }
         let separable = separable && beats_slow_noise;
-        if !separable && !in_time && fit.gain > 0.0 && beats_slow_noise {
+        if !separable && !unattributable && fit.gain > 0.0 && beats_slow_noise {
             out.untestable.push(f);
         }
         out.counted |= separable;
@@ -455,6 +468,27 @@ impl Judge<'_> {
             }
         }
         Ok(p_slow)
+    }
+
+    /// Whether a periodic `term`'s period is one at which the record's temperature itself
+    /// oscillates ([`line_ratio`]); a note in `out` says so.
+    fn period_of_temperature(&self, term: &Term, out: &mut Judged) -> bool {
+        let prep = self.base.prep;
+        let Some((_, nl)) = nonlinear_of(term) else {
+            return false;
+        };
+        let ratio = line_ratio(&prep.t_b, &prep.dtemp_b, nl[0]);
+        if ratio <= LINE_RATIO {
+            return false;
+        }
+        out.notes.push(format!(
+            "the bias repeats every {:.0} s, a period at which the temperature oscillates too \
+             (dT/dt's power there is {ratio:.0} times the median of the periods from half to \
+             twice it): a response to temperature as much as a period in time, not attributed \
+             to periodic",
+            nl[0]
+        ));
+        true
     }
 
     /// Whether a significant noise scale goes with temperature: a noise level that a level

@@ -20,6 +20,7 @@
 mod cache;
 mod families;
 mod grid;
+mod line;
 mod noise_model;
 mod report;
 mod significance;
@@ -117,7 +118,7 @@ pub(crate) fn run(
     let findings = match &judged.finding {
         Some(found) => {
             let mut finding = report::finding(found, &judge)?;
-            finding.close_alternatives = close_alternatives(&judged.scores, &finding, opts);
+            finding.close_alternatives = close_alternatives(&judged, &finding, opts);
             notes.extend(report::close_note(&judged.scores, &finding));
             vec![finding]
         }
@@ -160,17 +161,22 @@ pub(crate) fn run(
     })
 }
 
-/// The families beside `finding` that are significant at α, lower the held-out residual and
-/// fit within [`crate::CLOSE_DELTA_BIC`] of it.
+/// The families beside `finding` that are significant at α, lower the held-out residual,
+/// fit within [`crate::CLOSE_DELTA_BIC`] of it and may be attributed.
 fn close_alternatives(
-    scores: &[crate::CandidateScore],
+    judged: &families::Judged,
     finding: &crate::Finding,
     opts: &Options,
 ) -> Vec<rlg_physics::Mechanism> {
-    scores
+    judged
+        .scores
         .iter()
         .filter(|c| {
             c.mechanism != finding.mechanism
+                && !judged
+                    .unattributable
+                    .iter()
+                    .any(|f| f.mechanism() == c.mechanism)
                 && c.p_value <= opts.alpha
                 && c.heldout_gain > 0.0
                 && c.delta_bic - finding.delta_bic < crate::CLOSE_DELTA_BIC

@@ -1101,3 +1101,38 @@ fn a_near_tie_names_the_close_alternative() {
         d.evidence.notes
     );
 }
+
+/// A sensor's lag at D 7.0 on a chamber hunting ±0.2 °C about its set point every 1110 s
+/// (seed 1, case 3): the lagged reading's error repeats at the hunting's period, and a
+/// `periodic` of that period fitted it best. The temperature oscillates at that period, so
+/// the period is not attributed to `periodic` (a note says why, and it is no close
+/// alternative either), and the thermal family that predicts it from the temperature is the
+/// finding.
+#[test]
+fn a_period_of_the_chambers_own_hunting_is_not_a_periodic() {
+    let model = PhysicsModel::paper();
+    let case = build_case(3, Kind::Library(Family::SensorLag), 1, &model).expect("case");
+    let d = rlg_diagnose::diagnose(&case.recording, &model, &rlg_diagnose::Options::default())
+        .expect("diagnoses");
+    let f = d.findings.first().expect("a finding");
+    assert_eq!(f.mechanism.name(), "sensor_lag");
+    assert!(f.close_alternatives.iter().all(|m| m.name() != "periodic"));
+    let periodic = d
+        .evidence
+        .candidates
+        .iter()
+        .find(|c| c.mechanism.name() == "periodic")
+        .expect("scored");
+    assert!(
+        periodic.delta_bic < f.delta_bic,
+        "periodic fits better: {periodic:?}"
+    );
+    assert!(
+        d.evidence
+            .notes
+            .iter()
+            .any(|n| n.contains("the temperature oscillates too")),
+        "{:?}",
+        d.evidence.notes
+    );
+}
