@@ -181,9 +181,9 @@ pub(super) struct Judged {
     /// slow noise (the noise model failed its check, and they have no cycle-by-cycle
     /// evidence).
     untestable: Vec<Family>,
-    /// Significant families that describe the record's structure by what it is not caused
-    /// by: a noise level in time, a period of the temperature's own (not close
-    /// alternatives to a finding either).
+    /// Significant families not attributed for what their fit is the shape of instead (a
+    /// noise level that follows time, a period at which the temperature oscillates); not
+    /// close alternatives to a finding either.
     pub(super) unattributable: Vec<Family>,
     /// Slow functions of time significant under white + B but not under rate random walk.
     pub(super) slow_drift: Vec<SlowDrift>,
