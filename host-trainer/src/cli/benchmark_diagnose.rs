@@ -52,7 +52,8 @@ pub struct BenchmarkDiagnoseArgs {
     pub alpha: Option<f64>,
     /// Only the cases hiding these terms (library names, comma-separated; `none` for the
     /// cases with nothing hidden; in the mismatched set also `step` and `rate_squared`, the
-    /// effects outside the library). Each case keeps its number and recording.
+    /// effects outside the library, and with `--outside-kinds` `bump_in_time`, `telegraph`
+    /// and `bump_in_temperature`). Each case keeps its number and recording.
     #[arg(long, value_delimiter = ',')]
     pub only: Vec<String>,
     /// Mismatched set only: hide warm-up, aging, mode hop, backscatter, periodic, hysteresis
@@ -87,6 +88,11 @@ pub struct BenchmarkDiagnoseArgs {
     /// adds how often it is named `heteroscedastic`.
     #[arg(long)]
     pub noise_in_time: bool,
+    /// Mismatched set only: after the clean recordings, 12 each of three more effects
+    /// outside the library (a transient bump in time, a random telegraph, a bump at one
+    /// temperature; `--only bump_in_time,telegraph,bump_in_temperature` runs them alone).
+    #[arg(long)]
+    pub outside_kinds: bool,
     /// Diagnose each recording without its first N samples (0–3600): the same records with
     /// their 100 s blocks starting N samples later, to measure how much the verdicts depend
     /// on where the blocks start. Scored against the whole recording's truth.
@@ -217,6 +223,7 @@ fn run_mismatched_set(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
         second_effect: args.two_effects,
         coarse_reading: args.coarse_reading,
         noise_in_time: args.noise_in_time,
+        outside_kinds: args.outside_kinds,
     };
     opts.shift = usize::from(args.shift);
     opts.phases = usize::from(args.phases);
@@ -224,7 +231,8 @@ fn run_mismatched_set(args: &BenchmarkDiagnoseArgs) -> anyhow::Result<()> {
         opts.only.push(Kind::from_name(name).ok_or_else(|| {
             let known: Vec<&str> = rlg_diagnose::Family::ALL.iter().map(|f| f.name()).collect();
             anyhow::anyhow!(
-                "--only: unknown term `{name}`; known: none, step, rate_squared, {}",
+                "--only: unknown term `{name}`; known: none, step, rate_squared, bump_in_time, \
+                 telegraph, bump_in_temperature, {}",
                 known.join(", ")
             )
         })?);

@@ -13,7 +13,7 @@ use super::logger::Logger;
 use super::noise::{describe_noise, NoiseDraw, PAPER_ARW, PAPER_BI};
 use super::shapes::Shape;
 use super::thermal::{self, describe_body, describe_chamber, Body, Chamber, Profile, Trajectory};
-use super::{uni, Kind};
+use super::{log_uni, uni, Kind};
 use crate::diagnose::cases::scale_amplitude;
 use crate::diagnose::detectability::amplitude_at;
 use crate::diagnose::BenchError;
@@ -308,6 +308,9 @@ pub struct Variant {
     /// On the clean cases, a white-noise level that changes in time, not with temperature
     /// ([`NoiseInTime`]): is it told from `heteroscedastic`?
     pub noise_in_time: bool,
+    /// After the clean cases, further effects outside the library ([`Kind::MORE_OUTSIDE`]):
+    /// is structure of other kinds called `unexplained`?
+    pub outside_kinds: bool,
 }
 
 impl Variant {
@@ -321,6 +324,7 @@ impl Variant {
             (self.second_effect, "two effects"),
             (self.coarse_reading, "coarse reading"),
             (self.noise_in_time, "noise level in time"),
+            (self.outside_kinds, "more effects outside the library"),
         ];
         let mut s = String::from("mismatched set");
         for (_, name) in parts.iter().filter(|p| p.0) {
@@ -404,6 +408,38 @@ fn draw_hidden(
             step_dph: sign,
         },
         Kind::RateSquared => Hidden::RateSquared { coeff: sign },
+        Kind::BumpInTime => Hidden::BumpInTime {
+            centre_s: (duration_s * uni(rng, 0.2, 0.8)).round(),
+            width_s: log_uni(rng, 1200.0, 7200.0).round(),
+            amplitude_dph: sign,
+        },
+        Kind::Telegraph => {
+            // 3–8 switches on average over the record, exponential dwells (a Poisson
+            // process), none closer than 10 min; at least two, so it is not one step.
+            let mean = duration_s / uni(rng, 3.0, 8.0);
+            let mut switches_s = Vec::new();
+            let mut t = duration_s * uni(rng, 0.05, 0.25);
+            while t < 0.95 * duration_s {
+                switches_s.push(t.round());
+                t += (-mean * (1.0 - uni(rng, 0.0, 1.0)).ln()).max(600.0);
+            }
+            if switches_s.len() < 2 {
+                let last = switches_s.last().copied().unwrap_or(0.2 * duration_s);
+                switches_s.push(((last + 0.95 * duration_s) / 2.0).round());
+            }
+            Hidden::Telegraph {
+                switches_s,
+                level_dph: sign,
+            }
+        }
+        Kind::BumpInTemperature => {
+            let range = (hi - lo).max(1.0);
+            Hidden::BumpInTemperature {
+                centre_c: lo + range * uni(rng, 0.2, 0.8),
+                width_c: (range * uni(rng, 0.04, 0.12)).max(0.5),
+                amplitude_dph: sign,
+            }
+        }
     }
 }
 

@@ -1,6 +1,7 @@
 //! The hidden effect of a mismatched case: a library term, a library mechanism in another
-//! form ([`Shape`]), nothing, or one of the two effects outside the library (a step in time,
-//! a term in (dT/dt)²).
+//! form ([`Shape`]), nothing, or an effect outside the library: a step in time, a term in
+//! (dT/dt)², and with `--outside-kinds` a transient bump in time, a random telegraph
+//! (switching between two levels at random times) and a bump at one temperature.
 
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
@@ -39,6 +40,36 @@ pub enum Hidden {
         /// °/h per (°C/min)².
         coeff: f64,
     },
+    /// A transient in time unrelated to temperature: a Gaussian of width `width_s` (1σ)
+    /// centred at `centre_s` (a disturbance of the bench, a reference settling after an
+    /// event).
+    BumpInTime {
+        /// s.
+        centre_s: f64,
+        /// s.
+        width_s: f64,
+        /// °/h at the centre.
+        amplitude_dph: f64,
+    },
+    /// A bias that switches between 0 and `level_dph` at the times `switches_s`
+    /// (burst noise of a readout or a mode competition), unrelated to temperature.
+    Telegraph {
+        /// s, ascending.
+        switches_s: Vec<f64>,
+        /// °/h.
+        level_dph: f64,
+    },
+    /// A bump at one temperature: a Gaussian in the node's temperature of width `width_c`
+    /// (1σ) centred at `centre_c` (a lock-in or a mirror resonance at one temperature); neither
+    /// a step (mode hop) nor a ripple (backscatter).
+    BumpInTemperature {
+        /// °C.
+        centre_c: f64,
+        /// °C.
+        width_c: f64,
+        /// °/h at the centre.
+        amplitude_dph: f64,
+    },
     /// A library mechanism in another functional form (`--other-shapes`).
     Shaped {
         /// The form at its amplitude.
@@ -52,7 +83,11 @@ impl Hidden {
         match self {
             Hidden::None => Label::None,
             Hidden::Library { term } => Label::Mechanism(term.mechanism()),
-            Hidden::Step { .. } | Hidden::RateSquared { .. } => Label::Unexplained,
+            Hidden::Step { .. }
+            | Hidden::RateSquared { .. }
+            | Hidden::BumpInTime { .. }
+            | Hidden::Telegraph { .. }
+            | Hidden::BumpInTemperature { .. } => Label::Unexplained,
             Hidden::Shaped { shape } => Label::Mechanism(shape.family().mechanism()),
         }
     }
@@ -69,6 +104,31 @@ impl Hidden {
                 step_dph: step_dph * k,
             },
             Hidden::RateSquared { coeff } => Hidden::RateSquared { coeff: coeff * k },
+            Hidden::BumpInTime {
+                centre_s,
+                width_s,
+                amplitude_dph,
+            } => Hidden::BumpInTime {
+                centre_s: *centre_s,
+                width_s: *width_s,
+                amplitude_dph: amplitude_dph * k,
+            },
+            Hidden::Telegraph {
+                switches_s,
+                level_dph,
+            } => Hidden::Telegraph {
+                switches_s: switches_s.clone(),
+                level_dph: level_dph * k,
+            },
+            Hidden::BumpInTemperature {
+                centre_c,
+                width_c,
+                amplitude_dph,
+            } => Hidden::BumpInTemperature {
+                centre_c: *centre_c,
+                width_c: *width_c,
+                amplitude_dph: amplitude_dph * k,
+            },
             Hidden::Shaped { shape } => Hidden::Shaped {
                 shape: shape.scaled(k),
             },
@@ -90,6 +150,39 @@ impl Hidden {
                 .dnode_c_per_s
                 .iter()
                 .map(|r| coeff * (60.0 * r).powi(2))
+                .collect(),
+            Hidden::BumpInTime {
+                centre_s,
+                width_s,
+                amplitude_dph,
+            } => tr
+                .t_s
+                .iter()
+                .map(|t| amplitude_dph * (-0.5 * ((t - centre_s) / width_s).powi(2)).exp())
+                .collect(),
+            Hidden::Telegraph {
+                switches_s,
+                level_dph,
+            } => tr
+                .t_s
+                .iter()
+                .map(|t| {
+                    let passed = switches_s.partition_point(|s| s <= t);
+                    if passed % 2 == 1 {
+                        *level_dph
+                    } else {
+                        0.0
+                    }
+                })
+                .collect(),
+            Hidden::BumpInTemperature {
+                centre_c,
+                width_c,
+                amplitude_dph,
+            } => tr
+                .node_c
+                .iter()
+                .map(|c| amplitude_dph * (-0.5 * ((c - centre_c) / width_c).powi(2)).exp())
                 .collect(),
             Hidden::Shaped { shape } => shape.bias_effect(tr),
             _ => vec![0.0; tr.t_s.len()],
@@ -120,6 +213,40 @@ impl Hidden {
             Hidden::RateSquared { coeff } => {
                 format!("rate_squared {} °/h per (°C/min)²", num(*coeff))
             }
+            Hidden::BumpInTime {
+                centre_s,
+                width_s,
+                amplitude_dph,
+            } => format!(
+                "bump_in_time {} °/h at {:.1} h, σ {:.2} h",
+                num(*amplitude_dph),
+                centre_s / 3600.0,
+                width_s / 3600.0
+            ),
+            Hidden::Telegraph {
+                switches_s,
+                level_dph,
+            } => {
+                let at: Vec<String> = switches_s
+                    .iter()
+                    .map(|s| format!("{:.1}", s / 3600.0))
+                    .collect();
+                format!(
+                    "telegraph {} °/h, switching at {} h",
+                    num(*level_dph),
+                    at.join(", ")
+                )
+            }
+            Hidden::BumpInTemperature {
+                centre_c,
+                width_c,
+                amplitude_dph,
+            } => format!(
+                "bump_in_temperature {} °/h at {:.1} °C, σ {:.1} °C",
+                num(*amplitude_dph),
+                centre_c,
+                width_c
+            ),
             Hidden::Shaped { shape } => shape.describe(),
         }
     }

@@ -44,6 +44,12 @@
 //!   3…10; nothing (clean); or one of two effects outside the library, whose right verdict
 //!   is `unexplained_structure`: a bias step at a time unrelated to temperature (uniform in
 //!   the middle 60 % of the record) and a term a·(dT/dt)², dT/dt in °C/min.
+//! - **More effects outside the library** (`--outside-kinds`): after the clean cases, a
+//!   transient bump in time (a Gaussian of σ 20 min–2 h centred in the middle 60 % of the
+//!   record), a random telegraph (the bias switching between 0 and a level at the times of
+//!   a Poisson process of 3–8 switches per record, at least two) and a bump at one
+//!   temperature (a Gaussian in the node's temperature, σ 4–12 % of its range, centred in
+//!   its middle 60 %). None is a library shape; each is `unexplained_structure`.
 //! - **Other forms** (`--other-shapes`, [`Shape`]): warm-up, aging, mode hop, backscatter,
 //!   periodic, hysteresis and gradient lag hidden in a form the term library does not have
 //!   (two exponentials or a power law from power-on; logarithmic or square-root aging; a
@@ -142,6 +148,12 @@ pub enum Kind {
     Step,
     /// a·(dT/dt)² (outside the library).
     RateSquared,
+    /// A transient bump in time (outside the library; `--outside-kinds`).
+    BumpInTime,
+    /// A random telegraph in time (outside the library; `--outside-kinds`).
+    Telegraph,
+    /// A bump at one temperature (outside the library; `--outside-kinds`).
+    BumpInTemperature,
     /// Nothing.
     Clean,
 }
@@ -153,6 +165,9 @@ impl Kind {
             Kind::Library(f) => f.name(),
             Kind::Step => "step",
             Kind::RateSquared => "rate_squared",
+            Kind::BumpInTime => "bump_in_time",
+            Kind::Telegraph => "telegraph",
+            Kind::BumpInTemperature => "bump_in_temperature",
             Kind::Clean => "none",
         }
     }
@@ -162,6 +177,9 @@ impl Kind {
         match name {
             "step" => Some(Kind::Step),
             "rate_squared" => Some(Kind::RateSquared),
+            "bump_in_time" => Some(Kind::BumpInTime),
+            "telegraph" => Some(Kind::Telegraph),
+            "bump_in_temperature" => Some(Kind::BumpInTemperature),
             "none" => Some(Kind::Clean),
             n => Family::from_name(n).map(Kind::Library),
         }
@@ -169,8 +187,19 @@ impl Kind {
 
     /// Whether its effect lies outside the term library.
     pub fn outside(self) -> bool {
-        matches!(self, Kind::Step | Kind::RateSquared)
+        matches!(
+            self,
+            Kind::Step
+                | Kind::RateSquared
+                | Kind::BumpInTime
+                | Kind::Telegraph
+                | Kind::BumpInTemperature
+        )
     }
+
+    /// The effects outside the library that only `--outside-kinds` adds to the plan.
+    pub const MORE_OUTSIDE: [Kind; 3] =
+        [Kind::BumpInTime, Kind::Telegraph, Kind::BumpInTemperature];
 }
 
 impl Serialize for Kind {
@@ -233,7 +262,9 @@ impl MismatchOptions {
     }
 
     /// The numbered plan: each family's cases in `Family::ALL` order, the steps, the
-    /// (dT/dt)² terms, the clean cases.
+    /// (dT/dt)² terms, the clean cases; with [`Variant::outside_kinds`] then the further
+    /// effects outside the library ([`Kind::MORE_OUTSIDE`]), so the cases before them keep
+    /// their numbers.
     pub fn plan(&self) -> Vec<(usize, Kind)> {
         let mut plan: Vec<Kind> = Vec::new();
         for f in Family::ALL {
@@ -242,6 +273,11 @@ impl MismatchOptions {
         plan.extend(std::iter::repeat_n(Kind::Step, self.per_outside));
         plan.extend(std::iter::repeat_n(Kind::RateSquared, self.per_outside));
         plan.extend(std::iter::repeat_n(Kind::Clean, self.clean));
+        if self.variant.outside_kinds {
+            for k in Kind::MORE_OUTSIDE {
+                plan.extend(std::iter::repeat_n(k, self.per_outside));
+            }
+        }
         plan.into_iter()
             .enumerate()
             .filter(|(_, k)| self.only.is_empty() || self.only.contains(k))

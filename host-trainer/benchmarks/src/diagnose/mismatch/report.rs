@@ -384,14 +384,17 @@ fn confusion_matrix(o: &mut String, results: &[MismatchResult]) {
     cols.push(Label::Unexplained);
     let _ = writeln!(
         o,
-        "\nConfusion matrix (rows: hidden effect, columns: diagnosis; `step` and `rate_squared` \
-         are outside the library, right answer `unexplained`):\n"
+        "\nConfusion matrix (rows: hidden effect, columns: diagnosis; `step`, `rate_squared`, \
+         `bump_in_time`, `telegraph` and `bump_in_temperature` are outside the library, right \
+         answer `unexplained`):\n"
     );
     let names: Vec<&str> = cols.iter().map(|c| c.name()).collect();
     let _ = writeln!(o, "| hidden \\ diagnosed | {} |", names.join(" | "));
     let _ = writeln!(o, "|---|{}", "---|".repeat(cols.len()));
     let mut rows: Vec<Kind> = Family::ALL.iter().map(|f| Kind::Library(*f)).collect();
-    rows.extend([Kind::Step, Kind::RateSquared, Kind::Clean]);
+    rows.extend([Kind::Step, Kind::RateSquared]);
+    rows.extend(Kind::MORE_OUTSIDE);
+    rows.push(Kind::Clean);
     for row in rows {
         let rs: Vec<&MismatchResult> = results.iter().filter(|r| r.kind == row).collect();
         if rs.is_empty() {

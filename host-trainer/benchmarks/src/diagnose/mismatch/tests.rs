@@ -172,7 +172,7 @@ fn noise_scale_detectability_sees_the_samples_variance() {
 /// Every kind of case reaches the detectability drawn for it within 1e-6 (recomputed from
 /// its recording, its final noise and its hidden effect), D is linear in the amplitude
 /// of the effects that have one, and the truth label is the mechanism, `unexplained` for
-/// the two effects outside the library, `none` for a clean case.
+/// the effects outside the library, `none` for a clean case.
 #[test]
 fn cases_reach_their_detectability() {
     let model = PhysicsModel::paper();
@@ -183,14 +183,17 @@ fn cases_reach_their_detectability() {
         Kind::Library(Family::Heteroscedastic),
         Kind::Step,
         Kind::RateSquared,
+        Kind::BumpInTime,
+        Kind::Telegraph,
+        Kind::BumpInTemperature,
         Kind::Clean,
     ];
     for (id, kind) in kinds.into_iter().enumerate() {
         let case = build_case(id, kind, 5, &model).expect("case");
         let want = match kind {
             Kind::Library(f) => Label::Mechanism(f.mechanism()),
-            Kind::Step | Kind::RateSquared => Label::Unexplained,
-            Kind::Clean => Label::None,
+            k if k.outside() => Label::Unexplained,
+            _ => Label::None,
         };
         assert_eq!(case.hidden.label(), want, "{}", kind.name());
         if kind == Kind::Clean {
@@ -297,10 +300,14 @@ fn outside_effects_are_labelled_unexplained() {
 }
 
 /// Kinds read back from their names; the plan numbers families first, then the outside
-/// effects, then the clean cases, and `only` keeps the numbers.
+/// effects, then the clean cases, then (with `--outside-kinds`) the further outside effects,
+/// and `only` keeps the numbers.
 #[test]
 fn plan_and_names() {
-    for k in [Kind::Step, Kind::RateSquared, Kind::Clean] {
+    for k in [Kind::Step, Kind::RateSquared, Kind::Clean]
+        .into_iter()
+        .chain(Kind::MORE_OUTSIDE)
+    {
         assert_eq!(Kind::from_name(k.name()), Some(k));
     }
     assert_eq!(
@@ -315,6 +322,79 @@ fn plan_and_names() {
         o.plan(),
         vec![(22, Kind::RateSquared), (23, Kind::RateSquared)]
     );
+    o.variant.outside_kinds = true;
+    assert_eq!(
+        o.plan(),
+        vec![(22, Kind::RateSquared), (23, Kind::RateSquared)]
+    );
+    o.only = Vec::new();
+    let plan = o.plan();
+    assert_eq!(plan.len(), 2 * 10 + 2 * 2 + 8 + 3 * 2);
+    assert_eq!(plan[..32], MismatchOptions::quick(1).plan()[..]);
+    assert_eq!(
+        plan[32..].iter().map(|(_, k)| *k).collect::<Vec<_>>(),
+        [
+            Kind::BumpInTime,
+            Kind::BumpInTime,
+            Kind::Telegraph,
+            Kind::Telegraph
+        ]
+        .into_iter()
+        .chain([Kind::BumpInTemperature; 2])
+        .collect::<Vec<_>>()
+    );
+}
+
+/// The further effects outside the library: a bump in time inside the record, a telegraph
+/// of at least two switches (not one step) in ascending order, a bump at a temperature the
+/// body passes through; each adds what it says to the bias.
+#[test]
+fn more_outside_effects_are_what_they_say() {
+    let model = PhysicsModel::paper();
+    for (id, kind) in Kind::MORE_OUTSIDE.into_iter().enumerate() {
+        for seed in 1..=4 {
+            let case = build_case(300 + id, kind, seed, &model).expect("case");
+            let tr = &case.trajectory;
+            let end = tr.t_s[tr.t_s.len() - 1];
+            let e = case.hidden.bias_effect(tr);
+            let peak = e.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+            assert!(peak > 0.0, "{}: {:?}", kind.name(), case.hidden);
+            match &case.hidden {
+                Hidden::BumpInTime {
+                    centre_s,
+                    width_s,
+                    amplitude_dph,
+                } => {
+                    assert!(*centre_s > 0.15 * end && *centre_s < 0.85 * end);
+                    assert!((1200.0..=7200.0).contains(width_s));
+                    assert!((peak / amplitude_dph.abs() - 1.0).abs() < 0.01);
+                }
+                Hidden::Telegraph {
+                    switches_s,
+                    level_dph,
+                } => {
+                    assert!(switches_s.len() >= 2, "{switches_s:?}");
+                    assert!(switches_s.windows(2).all(|w| w[1] > w[0]), "{switches_s:?}");
+                    let levels: Vec<f64> = e.iter().copied().filter(|v| *v != 0.0).collect();
+                    assert!(levels.iter().all(|v| v == level_dph));
+                    assert!(!levels.is_empty() && levels.len() < e.len());
+                }
+                Hidden::BumpInTemperature {
+                    centre_c,
+                    amplitude_dph,
+                    ..
+                } => {
+                    let (lo, hi) = tr
+                        .node_c
+                        .iter()
+                        .fold((f64::MAX, f64::MIN), |(a, b), t| (a.min(*t), b.max(*t)));
+                    assert!(*centre_c > lo && *centre_c < hi, "{centre_c} in {lo}..{hi}");
+                    assert!(peak > 0.5 * amplitude_dph.abs());
+                }
+                h => panic!("{}: {h:?}", kind.name()),
+            }
+        }
+    }
 }
 
 /// A made-up scored case whose every p-value is `p`, run at α = 10 %.
