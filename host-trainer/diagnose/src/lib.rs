@@ -322,6 +322,15 @@ pub enum Unexplained {
         /// That rate, °C/s.
         at_c_per_s: f64,
     },
+    /// A shift of the bias over a span of time only, and back (a transient).
+    Window {
+        /// Its start, s since the first sample.
+        t_start_s: f64,
+        /// Its end, s since the first sample.
+        t_end_s: f64,
+        /// Its height in the whitened fit, °/h.
+        height_dph: f64,
+    },
     /// Structure spread over time, temperature and dT/dt (the piecewise alternative).
     Piecewise,
 }
@@ -348,6 +357,16 @@ impl Unexplained {
                  °/h at the record's fastest |dT/dt| ({:.2} °C/min) on a fit in |dT/dt| and \
                  (dT/dt)²: the library's rate terms change sign with dT/dt",
                 at_c_per_s * 60.0
+            ),
+            Unexplained::Window {
+                t_start_s,
+                t_end_s,
+                height_dph,
+            } => format!(
+                "a shift of {height_dph:+.3e} °/h in the bias from {:.2} h to {:.2} h into the \
+                 record and back, a transient in time that no term of the library has",
+                t_start_s / 3600.0,
+                t_end_s / 3600.0
             ),
             Unexplained::Piecewise => "structure spread over time, temperature and dT/dt (12 \
                  time chunks, 8 temperature bands, 4 dT/dt bands fitted together beside the \

@@ -192,16 +192,61 @@ pub(super) enum Shape {
     /// The same shift on heating and cooling: |dT/dt| and (dT/dt)², per sample and averaged
     /// over the block (the baseline's rate terms are odd).
     EvenInRate,
+    /// A shift of the bias over the blocks `start..end` only, and back: a transient in time
+    /// (a disturbance of the bench, a burst of a readout), which neither a step nor the
+    /// piecewise chunks fit without spreading it.
+    Window(usize, usize),
 }
 
 impl Shape {
-    /// The parameters the alternative is charged (a step's time is one).
+    /// The parameters the alternative is charged (a step's time is one, a window's two
+    /// edges two).
     fn n_params(self, cols: usize) -> usize {
         match self {
             Shape::Step(_) => 2,
+            Shape::Window(..) => 3,
             _ => cols,
         }
     }
+}
+
+/// The narrowest window in time, in blocks: an isolated spike of a single sample (a readout
+/// glitch, up to 100 times the 1 s σ) moves one 100 s mean by up to about 10 of its σ, which a
+/// window of 8 blocks dilutes to 3.5σ, below the 3 ln n a window is charged on any record of
+/// more than a few hours.
+const WINDOW_MIN_BLOCKS: usize = 8;
+
+/// The windows in time, as pairs (i, j) of the generic test's step times `steps` (block
+/// indices, ascending): a window is the step at the first less the step at the second, so
+/// its whitened column is the difference of theirs and costs no whitening of its own (a
+/// record of 1 300 blocks has about 1 000 windows, whose own whitening would double a
+/// diagnosis' time). Widths of 1, 2, 3, 4, 6, 9, … step spacings (each 1.5 times the last)
+/// from [`WINDOW_MIN_BLOCKS`] to a quarter of the record (wider, the steps and the
+/// piecewise chunks fit it), each width starting every third of itself: a boxcar transient
+/// is matched by some window at 80 % or more of its own fit's SNR where the spacing is
+/// under a third of its width (the test below). On a month, the 150 step times are 4.8 h
+/// apart, and so is the narrowest window.
+fn window_pairs(steps: &[usize], nb: usize) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    let mut widths: Vec<usize> = Vec::new();
+    let mut w = 1.0_f64;
+    while (w.round() as usize) < steps.len() {
+        let d = w.round() as usize;
+        if widths.last() != Some(&d) {
+            widths.push(d);
+        }
+        w *= 1.5;
+    }
+    for d in widths {
+        let stride = (d / 3).max(1);
+        for i in (0..steps.len() - d).step_by(stride) {
+            let width = steps[i + d] - steps[i];
+            if (WINDOW_MIN_BLOCKS..=nb / 4).contains(&width) {
+                out.push((i, i + d));
+            }
+        }
+    }
+    out
 }
 
 /// The generic structure test's alternatives: shapes with no physics in them, each fitted
@@ -212,6 +257,9 @@ impl Shape {
 pub(super) struct Generic {
     shapes: Vec<Shape>,
     cols: Vec<Vec<Vec<f64>>>,
+    /// The windows ([`window_pairs`]), as indices of their two steps among `shapes`; their
+    /// shapes follow the others' in the fits' numbering.
+    windows: Vec<(usize, usize)>,
 }
 
 impl Generic {
@@ -220,7 +268,9 @@ impl Generic {
         let nb = prep.nb();
         let mut shapes = vec![Shape::Piecewise];
         let mut cols = vec![piecewise_columns(prep)];
-        for k in step_times(nb, GENERIC_STEP_TIMES) {
+        let steps = step_times(nb, GENERIC_STEP_TIMES);
+        let first_step = shapes.len();
+        for &k in &steps {
             shapes.push(Shape::Step(k));
             cols.push(vec![(0..nb).map(|b| f64::from(u8::from(b >= k))).collect()]);
         }
@@ -233,7 +283,38 @@ impl Generic {
                 prep.blocks(&r.iter().map(|v| (v / scale).powi(2)).collect::<Vec<f64>>()),
             ]);
         }
-        Self { shapes, cols }
+        let windows = window_pairs(&steps, nb);
+        shapes.extend(
+            windows
+                .iter()
+                .map(|&(i, j)| Shape::Window(steps[i], steps[j])),
+        );
+        let windows = windows
+            .into_iter()
+            .map(|(i, j)| (first_step + i, first_step + j))
+            .collect();
+        Self {
+            shapes,
+            cols,
+            windows,
+        }
+    }
+
+    /// Whether alternative `i` is a window in time.
+    pub(super) fn is_window(&self, i: usize) -> bool {
+        matches!(self.shapes[i], Shape::Window(..))
+    }
+
+    /// The block columns of alternative `i` on a record of `nb` blocks.
+    pub(super) fn columns(&self, i: usize, nb: usize) -> Vec<Vec<f64>> {
+        match self.shapes[i] {
+            Shape::Window(a, b) => {
+                vec![(0..nb)
+                    .map(|k| f64::from(u8::from((a..b).contains(&k))))
+                    .collect()]
+            }
+            _ => self.cols[i].clone(),
+        }
     }
 
     /// The alternatives whitened by `ar` and made orthogonal to the model's `basis`.
@@ -262,11 +343,22 @@ impl Generic {
                 _ => s.n_params(c.len()),
             })
             .collect();
+        // A window's column is its first step's less its second's, whitened and orthogonal
+        // to the model as theirs are; its fit needs only its squared norm.
+        let windows = self
+            .windows
+            .iter()
+            .map(|&(a, b)| {
+                let (ca, cb) = (&cperp[a][0], &cperp[b][0]);
+                (a, b, dot(ca, ca) - 2.0 * dot(ca, cb) + dot(cb, cb))
+            })
+            .collect();
         GenericFits {
             shapes: self.shapes.clone(),
             cperp,
             fits,
             k,
+            windows,
         }
     }
 }
@@ -278,6 +370,9 @@ pub(super) struct GenericFits {
     cperp: Vec<Vec<Vec<f64>>>,
     fits: Vec<AddedFit>,
     k: Vec<usize>,
+    /// Each window's two step alternatives and its whitened column's squared norm; the
+    /// windows are numbered after the other alternatives.
+    windows: Vec<(usize, usize, f64)>,
 }
 
 impl GenericFits {
@@ -291,12 +386,46 @@ impl GenericFits {
                 best = (Some(i), d);
             }
         }
+        let dots = self.step_dots(e);
+        let windows = Shape::Window(0, 0).n_params(1);
+        for (w, &(a, b, g)) in self.windows.iter().enumerate() {
+            if g <= 0.0 {
+                continue;
+            }
+            let x = dots[a] - dots[b];
+            let d = delta_bic(n, rss0, x * x / g, windows);
+            if d < best.1 {
+                best = (Some(self.cperp.len() + w), d);
+            }
+        }
         best
+    }
+
+    /// Each single-column alternative's column against `e` (0 for the others), for the
+    /// windows made of two steps.
+    fn step_dots(&self, e: &[f64]) -> Vec<f64> {
+        if self.windows.is_empty() {
+            return Vec::new();
+        }
+        self.cperp
+            .iter()
+            .map(|c| match c.as_slice() {
+                [one] => dot(one, e),
+                _ => 0.0,
+            })
+            .collect()
     }
 
     /// The coefficients of alternative `i` fitted to `e` (°/h per unit of each column).
     pub(super) fn coefficients(&self, i: usize, e: &[f64]) -> Vec<f64> {
-        crate::linalg::added_fit(&self.cperp[i], e).1
+        match i.checked_sub(self.cperp.len()) {
+            None => crate::linalg::added_fit(&self.cperp[i], e).1,
+            Some(w) => {
+                let (a, b, g) = self.windows[w];
+                let x = dot(&self.cperp[a][0], e) - dot(&self.cperp[b][0], e);
+                vec![if g > 0.0 { x / g } else { 0.0 }]
+            }
+        }
     }
 }
 
@@ -308,8 +437,8 @@ impl Scan {
         let Some(i) = self.gen_best else {
             return Vec::new();
         };
-        let cols = &generic.cols[i];
-        let nb = cols.first().map_or(0, Vec::len);
+        let nb = base_b.first().map_or(0, Vec::len);
+        let cols = generic.columns(i, nb);
         let fit: Vec<f64> = (0..nb)
             .map(|b| cols.iter().zip(&self.gen_coef).map(|(c, a)| a * c[b]).sum())
             .collect();
@@ -336,7 +465,54 @@ impl Scan {
                     .iter()
                     .fold(0.0_f64, |m, v| m.max(v.abs())),
             },
+            Shape::Window(a, b) => Unexplained::Window {
+                t_start_s: prep.t_b[a] - prep.full_drive.t_s[0],
+                t_end_s: prep.t_b[b.min(prep.t_b.len() - 1)] - prep.full_drive.t_s[0],
+                height_dph: c.first().copied().unwrap_or(0.0),
+            },
             Shape::Piecewise => Unexplained::Piecewise,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every window lies between two of the generic test's step times, none narrower than
+    /// the spike guard or wider than a quarter of the record; a boxcar transient between the
+    /// first and the last step time, from three step spacings (and 8 blocks) to the widest
+    /// window, is matched by some window at ≥ 80 % of its own fit's SNR (overlap / √(w·w₀)).
+    #[test]
+    fn windows_match_every_transient_inside_the_record() {
+        for nb in [100, 361, 1272, 4000] {
+            let steps = step_times(nb, GENERIC_STEP_TIMES);
+            let spans: Vec<(usize, usize)> = window_pairs(&steps, nb)
+                .into_iter()
+                .map(|(i, j)| (steps[i], steps[j]))
+                .collect();
+            let widest = spans.iter().map(|(a, b)| b - a).max().expect("windows");
+            for &(a, b) in &spans {
+                assert!(
+                    (WINDOW_MIN_BLOCKS..=nb / 4).contains(&(b - a)),
+                    "{nb}: {a}..{b}"
+                );
+            }
+            let (first, last) = (steps[0], steps[steps.len() - 1]);
+            let mut w0 = WINDOW_MIN_BLOCKS.max(3 * (steps[1] - steps[0]));
+            while w0 <= widest {
+                for s0 in (first..last - w0).step_by((w0 / 5).max(1)) {
+                    let best = spans
+                        .iter()
+                        .map(|&(a, b)| {
+                            let overlap = b.min(s0 + w0).saturating_sub(a.max(s0)) as f64;
+                            overlap / (((b - a) * w0) as f64).sqrt()
+                        })
+                        .fold(0.0, f64::max);
+                    assert!(best >= 0.8, "{nb}: transient {s0}+{w0}: {best:.3}");
+                }
+                w0 = w0 * 5 / 4 + 1;
+            }
+        }
     }
 }

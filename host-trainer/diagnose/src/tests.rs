@@ -357,6 +357,49 @@ fn step_in_time_is_unexplained_and_located() {
     assert!(rise > 0.3 * 0.003 && rise < 0.003, "fitted rise {rise:e}");
 }
 
+/// A transient in time, not tied to temperature: the bias shifted by a Gaussian bump of
+/// 30 min (1σ) two fifths into the record. No term of the library has it and a single step
+/// does not fit it; the generic test's windows do: `unexplained_structure`, the note and the
+/// evidence say when.
+#[test]
+fn transient_in_time_is_unexplained_and_located() {
+    let mut rec = simulate(&scenario(vec![], 1.0), 47)
+        .expect("simulates")
+        .recording;
+    let (t0, t1) = (rec.time_s[0], rec.time_s[rec.time_s.len() - 1]);
+    let (centre, width) = (t0 + 0.4 * (t1 - t0), 1800.0);
+    for (r, t) in rec.rate_dph.iter_mut().zip(&rec.time_s) {
+        *r += 0.006 * (-0.5 * ((t - centre) / width).powi(2)).exp();
+    }
+    let d = diagnose(&rec, &PhysicsModel::paper(), &Options::default()).expect("diagnoses");
+    assert_eq!(
+        d.verdict,
+        Verdict::UnexplainedStructure,
+        "{:#?}",
+        d.evidence
+    );
+    let note = unexplained_note(&d).expect("the note says what it looks like");
+    assert!(note.contains("transient in time"), "{note}");
+    let Some(Unexplained::Window {
+        t_start_s,
+        t_end_s,
+        height_dph,
+    }) = d.evidence.unexplained
+    else {
+        panic!("a window in the evidence: {:?}", d.evidence.unexplained);
+    };
+    let c = centre - t0;
+    assert!(
+        t_start_s < c && c < t_end_s,
+        "{t_start_s}..{t_end_s} s; centre {c} s"
+    );
+    assert!(
+        t_end_s - t_start_s < 6.0 * width,
+        "{t_start_s}..{t_end_s} s"
+    );
+    assert!(height_dph > 0.002 && height_dph < 0.009, "{height_dph}");
+}
+
 /// At ten times the paper's signal-to-noise the fitted non-linear parameters are accurate:
 /// each case pins a fix of an estimator bias that noise alone would hide.
 fn high_snr(extra: Term, seed: u64) -> Finding {

@@ -79,7 +79,14 @@ pub(super) struct Structure {
 pub(super) fn structure_test(q: &StructureQuestion<'_>, opts: &Options) -> Structure {
     let (sig, p1) = (q.sig, q.sig.structure_alone);
     let p_rrw = (q.reasked && q.noise.without_slow_noise() && p1 <= STRUCTURE_RRW_BELOW)
-        .then(|| structure_under_rrw(q.base.prep, &q.base.cols_b, q.generic, opts))
+        .then(|| {
+            let best = q
+                .scan
+                .gen_best
+                .filter(|&i| q.generic.is_window(i))
+                .map_or_else(Vec::new, |i| q.generic.columns(i, q.base.prep.nb()));
+            structure_under_rrw(q.base.prep, &q.base.cols_b, best, q.generic, opts)
+        })
         .flatten();
     let p_value = sig.floor(sig.structure_p(p_rrw.map_or(p1, |p| p1.max(p))));
     let significant = q.scan.gen_dbic < sig.structure_threshold && p_value <= opts.alpha;
