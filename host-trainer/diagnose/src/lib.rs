@@ -16,7 +16,8 @@
 //!    gives the null distribution of the best candidate, each family's ΔBIC read against its
 //!    own null's tail (this accounts for the coloured noise and for the look-elsewhere effect
 //!    of the scans), and that of a generic structure test (time chunks, temperature and
-//!    dT/dt bands). Either test makes the
+//!    dT/dt bands, a step in time, a shift even in dT/dt, a window in time). Either test
+//!    makes the
 //!    verdict other than `consistent`, so each is run at the level at which the two together
 //!    have false-alarm probability α (the record's smaller p-value ranked among the
 //!    replicates' smaller p-values), and their p-values are reported on that scale. A candidate counts when its

@@ -95,10 +95,11 @@ pub(super) fn structure_test(q: &StructureQuestion<'_>, opts: &Options) -> Struc
         .filter(|(p1, p)| *p1 <= opts.alpha && *p > opts.alpha)
         .map(|(p1, q)| {
             format!(
-                "the generic structure test (time chunks, temperature and dT/dt bands) is \
-                 significant under white noise and bias instability (p = {p1:.3}) but not \
-                 under the same record's noise refitted with rate random walk (p = {q:.3}): slow \
-                 drift, not separable from the record's own slow noise in a record this long"
+                "the generic structure test (time chunks, temperature and dT/dt bands, steps, \
+                 windows in time) is significant under white noise and bias instability (p = \
+                 {p1:.3}) but not under the same record's noise refitted with rate random walk \
+                 (p = {q:.3}): slow drift, not separable from the record's own slow noise in a \
+                 record this long"
             )
         });
     Structure {
