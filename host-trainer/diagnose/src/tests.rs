@@ -308,20 +308,29 @@ fn unexplained_note(d: &Diagnosis) -> Option<&String> {
         .find(|n| n.starts_with(search::UNEXPLAINED_LOOKS))
 }
 
-/// A step in the bias at a third of the record, not tied to temperature: the generic test's
-/// step alternative finds it, the verdict is `unexplained_structure`, the note says when and
-/// how high, and the plot's series holds the step's shape.
-#[test]
-fn step_in_time_is_unexplained_and_located() {
-    let (rec, t_step) = with_step(43, 0.3, 0.003);
-    let d = diagnose(&rec, &PhysicsModel::paper(), &Options::default()).expect("diagnoses");
+/// The diagnosis of `rec` on the paper's model, which must be `unexplained_structure`, and
+/// its note on what the structure looks like.
+fn diagnosed_unexplained(rec: &rlg_io::recording::Recording) -> (Diagnosis, String) {
+    let d = diagnose(rec, &PhysicsModel::paper(), &Options::default()).expect("diagnoses");
     assert_eq!(
         d.verdict,
         Verdict::UnexplainedStructure,
         "{:#?}",
         d.evidence
     );
-    let note = unexplained_note(&d).expect("the note says what it looks like");
+    let note = unexplained_note(&d)
+        .expect("the note says what it looks like")
+        .clone();
+    (d, note)
+}
+
+/// A step in the bias at a third of the record, not tied to temperature: the generic test's
+/// step alternative finds it, the verdict is `unexplained_structure`, the note says when and
+/// how high, and the plot's series holds the step's shape.
+#[test]
+fn step_in_time_is_unexplained_and_located() {
+    let (rec, t_step) = with_step(43, 0.3, 0.003);
+    let (d, note) = diagnosed_unexplained(&rec);
     assert!(note.contains("a step of"), "{note}");
     let Some(Unexplained::Step {
         t_s, height_dph, ..
@@ -371,14 +380,7 @@ fn transient_in_time_is_unexplained_and_located() {
     for (r, t) in rec.rate_dph.iter_mut().zip(&rec.time_s) {
         *r += 0.006 * (-0.5 * ((t - centre) / width).powi(2)).exp();
     }
-    let d = diagnose(&rec, &PhysicsModel::paper(), &Options::default()).expect("diagnoses");
-    assert_eq!(
-        d.verdict,
-        Verdict::UnexplainedStructure,
-        "{:#?}",
-        d.evidence
-    );
-    let note = unexplained_note(&d).expect("the note says what it looks like");
+    let (d, note) = diagnosed_unexplained(&rec);
     assert!(note.contains("transient in time"), "{note}");
     let Some(Unexplained::Window {
         t_start_s,
