@@ -47,8 +47,6 @@ pub(super) struct Scan {
     pub(super) gen: GenericFits,
     /// The alternative that fits the record best.
     pub(super) gen_best: Option<usize>,
-    /// The windows in time that fit the record best, one after another ([`GenericFits::best_windows`]).
-    pub(super) win_best: Vec<usize>,
     /// Its coefficients (°/h per unit of each of its columns).
     pub(super) gen_coef: Vec<f64>,
     /// Its ΔBIC: the generic structure test's statistic.
@@ -114,7 +112,6 @@ pub(super) fn scan(
     }
     let gen = generic.whitened(ar, &basis);
     let (gen_best, gen_dbic) = gen.best(&yw, n, rss0);
-    let win_best = gen.best_windows(&yw, n, WINDOWS_BESIDE);
     let gen_coef = gen_best.map_or_else(Vec::new, |i| gen.coefficients(i, &yw));
     let fits = cperp.par_iter().map(|cp| AddedFit::new(cp)).collect();
     Scan {
@@ -128,7 +125,6 @@ pub(super) fn scan(
         basis,
         gen,
         gen_best,
-        win_best,
         gen_coef,
         gen_dbic,
     }
@@ -184,10 +180,6 @@ fn piecewise_columns(prep: &Prepared) -> Vec<Vec<f64>> {
 /// loses about δ/(s(1 − s)) of its fit gain there, under 2 % in the middle third (the fine
 /// step scan of the search locates it where a step is put against a drift).
 const GENERIC_STEP_TIMES: usize = 150;
-
-/// How many windows in time the noise is refitted beside when the generic test is asked
-/// again ([`crate::search`]'s structure test).
-pub(super) const WINDOWS_BESIDE: usize = 2;
 
 /// The shape of one alternative of the generic structure test.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -263,7 +255,7 @@ fn window_pairs(steps: &[usize], nb: usize) -> Vec<(usize, usize)> {
 /// shape a record shows often and no library term has gets its own alternative, and the
 /// bootstrap calibrates the best of them as it does the library's scan.
 pub(super) struct Generic {
-    pub(super) shapes: Vec<Shape>,
+    shapes: Vec<Shape>,
     cols: Vec<Vec<Vec<f64>>>,
     /// The windows ([`window_pairs`]), as indices of their two steps among `shapes`; their
     /// shapes follow the others' in the fits' numbering.
@@ -394,52 +386,19 @@ impl GenericFits {
                 best = (Some(i), d);
             }
         }
-        match self.best_window(e, n, rss0) {
-            Some((i, d)) if d < best.1 => (Some(i), d),
-            _ => best,
-        }
-    }
-
-    /// At most `k` windows in time that fit `e` best one after another, each on what the
-    /// fits of those before leave (a bump of smooth shape is fitted by nested windows, where
-    /// one window leaves its flanks).
-    pub(super) fn best_windows(&self, e: &[f64], n: usize, k: usize) -> Vec<usize> {
-        let mut e = e.to_vec();
-        let mut out = Vec::new();
-        for _ in 0..k {
-            let rss = dot(&e, &e);
-            let Some((i, _)) = self.best_window(&e, n, rss) else {
-                break;
-            };
-            let (a, b, _) = self.windows[i - self.cperp.len()];
-            let c: Vec<f64> = self.cperp[a][0]
-                .iter()
-                .zip(&self.cperp[b][0])
-                .map(|(x, y)| x - y)
-                .collect();
-            let (cc, ce) = (dot(&c, &c), dot(&c, &e));
-            if cc <= 0.0 || out.contains(&i) {
-                break;
-            }
-            e.iter_mut().zip(&c).for_each(|(v, w)| *v -= ce / cc * w);
-            out.push(i);
-        }
-        out
-    }
-
-    /// The window in time that fits `e` best, and its ΔBIC.
-    pub(super) fn best_window(&self, e: &[f64], n: usize, rss0: f64) -> Option<(usize, f64)> {
         let dots = self.step_dots(e);
-        let k = Shape::Window(0, 0).n_params(1);
-        self.windows
-            .iter()
-            .enumerate()
-            .filter(|(_, &(_, _, g))| g > 0.0)
-            .map(|(w, &(a, b, g))| {
-                let x = dots[a] - dots[b];
-                (self.cperp.len() + w, delta_bic(n, rss0, x * x / g, k))
-            })
-            .min_by(|x, y| x.1.total_cmp(&y.1))
+        let windows = Shape::Window(0, 0).n_params(1);
+        for (w, &(a, b, g)) in self.windows.iter().enumerate() {
+            if g <= 0.0 {
+                continue;
+            }
+            let x = dots[a] - dots[b];
+            let d = delta_bic(n, rss0, x * x / g, windows);
+            if d < best.1 {
+                best = (Some(self.cperp.len() + w), d);
+            }
+        }
+        best
     }
 
     /// Each single-column alternative's column against `e` (0 for the others), for the

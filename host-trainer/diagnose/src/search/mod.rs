@@ -59,7 +59,7 @@ pub(crate) enum Pass {
 
 /// One pass of the search. On a later pass the generic test keeps its one null unless a
 /// slow function of time fails the slow-drift check or the first pass found the generic
-/// structure to be slow drift (see [`Pass`] and [`slow::structure_beside`]).
+/// structure to be slow drift (see [`Pass`] and [`slow::structure_under_rrw`]).
 pub(crate) fn run(
     prep: &Prepared,
     model: &PhysicsModel,
@@ -105,8 +105,7 @@ pub(crate) fn run(
         reasked: pass != Pass::Later { slow_drift: false } || !judged.slow_drift.is_empty(),
     };
     let structure = report::structure_test(&question, opts);
-    notes.extend(structure.slow_drift.iter().cloned());
-    notes.extend(structure.beside_windows.iter().cloned());
+    notes.extend(structure.note.iter().cloned());
     let unexplained = structure.significant && judged.finding.is_none();
     let shape = unexplained.then(|| scan.unexplained(prep)).flatten();
     notes.extend(shape.as_ref().map(|s| {
@@ -145,7 +144,7 @@ pub(crate) fn run(
             structure_threshold: sig.structure_threshold,
             structure_delta_bic: scan.gen_dbic,
             structure_p_value: structure.p_value,
-            structure_slow_drift: structure.slow_drift.is_some(),
+            structure_slow_drift: structure.note.is_some(),
             step: judged.step,
             rate_ramp: noise.ramp.clone(),
             unexplained: shape,

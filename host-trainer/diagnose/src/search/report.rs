@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use super::families::{Fitted, Judge};
 use super::noise_model::FittedNoise;
 use super::significance::Significance;
-use super::slow::{structure_beside, STRUCTURE_REFIT_BELOW};
+use super::slow::{structure_under_rrw, STRUCTURE_RRW_BELOW};
 use crate::baseline::Baseline;
 use crate::candidates::Family;
 use crate::explain::explain;
@@ -70,57 +70,28 @@ pub(super) struct Structure {
     /// Whether it is significant at α.
     pub(super) significant: bool,
     /// Set where white + B found structure that the record's slow noise explains.
-    pub(super) slow_drift: Option<String>,
-    /// Set where the test is significant under the noise refitted beside the windows in
-    /// time only.
-    pub(super) beside_windows: Option<String>,
+    pub(super) note: Option<String>,
 }
 
-/// The generic structure test on the verdict's scale. Where its p-value under the pass's
-/// noise is at most [`STRUCTURE_REFIT_BELOW`] and no rate ramp stands in that noise, it is
-/// asked again under the noise refitted beside the windows in time that fit best (see
-/// [`structure_beside`]):
-///
-/// - where the pass's noise has rate random walk, under that noise refitted (or under
-///   white + B, where beside the windows the likeliest K is 0), in place of the first
-///   p-value;
-/// - where it has none and the test is re-asked (see [`StructureQuestion::reasked`]), also
-///   under rate random walk, the larger p-value counting; K is refitted beside the windows
-///   only where a window is the best alternative. Beside a step it is not: a step is the
-///   shape the wander itself takes over a record, and refitted beside the windows wherever
-///   the best alternative was a step, clean records with rate random walk and a noise level
-///   that changes in time were flagged (1 of 60 more on one seed; earlier, K refitted beside
-///   the step itself, 3 of 60 more on another).
-///
-/// Under white + B the first p-value stands: refitted beside the windows, B fell on clean
-/// records with 1/f-like wander, and 3 of 60 more were flagged on one seed.
+/// The generic structure test on the verdict's scale, the larger of its p-values under
+/// white + B and under rate random walk where the second is asked (see
+/// [`StructureQuestion::reasked`]).
 pub(super) fn structure_test(q: &StructureQuestion<'_>, opts: &Options) -> Structure {
     let (sig, p1) = (q.sig, q.sig.structure_alone);
-    let prep = q.base.prep;
-    let windows = &q.scan.win_best;
-    let beside =
-        |w: &[usize], rrw: bool| structure_beside(prep, &q.base.cols_b, w, q.generic, rrw, opts);
-    let asked = p1 <= STRUCTURE_REFIT_BELOW && q.noise.ramp.is_none();
-    let (refitted, p_rrw) = match (asked, q.noise.without_slow_noise()) {
-        (false, _) => (None, None),
-        (true, true) => {
-            let best_is_window = q.scan.gen_best.is_some_and(|i| q.generic.is_window(i));
-            let w: &[usize] = if best_is_window { windows } else { &[] };
-            let p = q.reasked.then(|| beside(w, true)).flatten();
-            (None, p.map(|r| r.p_value))
-        }
-        (true, false) if !windows.is_empty() => (
-            beside(windows, true).or_else(|| beside(windows, false)),
-            None,
-        ),
-        (true, false) => (None, None),
-    };
-    let p_main = refitted.as_ref().map_or(p1, |r| r.p_value);
-    let p_value = sig.floor(sig.structure_p(p_rrw.map_or(p_main, |p| p_main.max(p))));
-    let significant =
-        (refitted.is_some() || q.scan.gen_dbic < sig.structure_threshold) && p_value <= opts.alpha;
-    let slow_drift = p_rrw
-        .map(|p| (sig.structure_p(p_main), sig.structure_p(p)))
+    let p_rrw = (q.reasked && q.noise.without_slow_noise() && p1 <= STRUCTURE_RRW_BELOW)
+        .then(|| {
+            let best = q
+                .scan
+                .gen_best
+                .filter(|&i| q.generic.is_window(i))
+                .map_or_else(Vec::new, |i| q.generic.columns(i, q.base.prep.nb()));
+            structure_under_rrw(q.base.prep, &q.base.cols_b, best, q.generic, opts)
+        })
+        .flatten();
+    let p_value = sig.floor(sig.structure_p(p_rrw.map_or(p1, |p| p1.max(p))));
+    let significant = q.scan.gen_dbic < sig.structure_threshold && p_value <= opts.alpha;
+    let note = p_rrw
+        .map(|p| (sig.structure_p(p1), sig.structure_p(p)))
         .filter(|(p1, p)| *p1 <= opts.alpha && *p > opts.alpha)
         .map(|(p1, q)| {
             format!(
@@ -131,30 +102,10 @@ pub(super) fn structure_test(q: &StructureQuestion<'_>, opts: &Options) -> Struc
                  record this long"
             )
         });
-    let beside_windows = refitted.filter(|_| significant).map(|r| {
-        format!(
-            "under the noise fitted to the model's residual (K = {:.2e} °/h/√h) the generic \
-             structure test has p = {:.3}; under the noise refitted beside the {} in time that \
-             fit best ({}) it has p = {:.3}: the noise had taken a transient as wander",
-            q.noise.gyro.rrw_dph_per_rt_h,
-            sig.structure_p(p1),
-            if windows.len() == 1 {
-                "window"
-            } else {
-                "windows"
-            },
-            match r.noise.rrw_dph_per_rt_h {
-                0.0 => "no rate random walk".to_string(),
-                k => format!("K = {k:.2e} °/h/√h"),
-            },
-            p_value
-        )
-    });
     Structure {
         p_value,
         significant,
-        slow_drift,
-        beside_windows,
+        note,
     }
 }
 

@@ -61,47 +61,36 @@ impl SlowDrift {
     }
 }
 
-/// The generic structure test's p-values under the noise refitted beside its best window in
-/// time are computed only when its first p-value is at most this (a larger one is far from
-/// any α the diagnosis is run at, ≤ 10 %, and each refit costs a bootstrap).
-pub(super) const STRUCTURE_REFIT_BELOW: f64 = 0.3;
+/// The generic test's second null is computed only when its first p-value is at most this
+/// (a larger one decides nothing at the α the diagnosis is run at, ≤ 10 %).
+pub(super) const STRUCTURE_RRW_BELOW: f64 = 0.2;
 
-/// The generic structure test under the record's noise refitted by REML beside `windows`
-/// (the windows in time that fit the record best, one after another), with rate random walk
-/// allowed or not, in its own GLS whitening and bootstrap (`None` when `rrw` and REML puts
-/// no rate random walk in, or the record is too long for the GLS factor).
+/// The generic structure test's p-value under the record's noise refitted by REML with rate
+/// random walk allowed, its own GLS whitening and bootstrap (`None` when REML puts no rate
+/// random walk in, or the record is too long for the GLS factor). Twelve time chunks are
+/// among the generic columns, and over one record a drift of rate random walk or of
+/// 1/f-like wander fills them as a step would: under white noise and bias instability
+/// alone such a drift passed as structure. The structure test needs both p-values at α.
 ///
-/// Why beside the windows: the pass's noise is fitted under the null, to the baseline
-/// residual, and a transient in it is taken as noise: a bump of 30 min at 4σ of a 100 s
-/// mean raised the rate random walk K until the test under it had p 0.24, and a bump of an
-/// hour on a record of six temperature cycles put K of 7e-4 °/h/√h into a noise that had
-/// none. Refitted beside the windows the transient is no longer in the noise. Two windows,
-/// not one: a bump of smooth shape is fitted by nested windows, where one window leaves its
-/// flanks to the noise (beside one, K fell from 7.05e-4 to 6.9e-4; beside two, to 0). The
-/// bootstrap still takes the best of every alternative under the refitted noise, so choosing
-/// the windows on the record is charged; what is not is the little of the noise's own
-/// wander the windows take from the fit (measured on clean records: the results' false
-/// alarms).
-///
-/// With `rrw`, this is also the second null of slow functions of time: twelve time chunks
-/// are among the generic columns, and over one record a drift of rate random walk or of
-/// 1/f-like wander fills them as a step would; under white noise and bias instability alone
-/// such a drift passed as structure.
-pub(super) fn structure_beside(
+/// The noise is refitted beside `best`, the columns of the generic alternative that fits
+/// the record best: fitted on the baseline residual alone, K took the structure under test
+/// as wander (a transient of 30 min at 4σ of a 100 s mean raised K until the test under it
+/// had p 0.24), and no structure could then be told from slow noise. The bootstrap still
+/// takes the best of every alternative under that noise, so choosing `best` on the record is
+/// charged; what is not is the little of the noise's own wander `best` takes from K's fit.
+pub(super) fn structure_under_rrw(
     prep: &Prepared,
     base_b: &[Vec<f64>],
-    windows: &[usize],
+    best: Vec<Vec<f64>>,
     generic: &Generic,
-    rrw: bool,
     opts: &Options,
-) -> Option<Refitted> {
+) -> Option<f64> {
     if prep.nb() > GLS_MAX_BLOCKS {
         return None;
     }
-    let best = windows.iter().flat_map(|&i| generic.columns(i, prep.nb()));
     let beside: Vec<Vec<f64>> = base_b.iter().cloned().chain(best).collect();
-    let g = reml_noise(&beside, &prep.y_b, prep.block, prep.dt_s, rrw)?;
-    if rrw && g.rrw_dph_per_rt_h == 0.0 {
+    let g = reml_noise(&beside, &prep.y_b, prep.block, prep.dt_s, true)?;
+    if g.rrw_dph_per_rt_h == 0.0 {
         return None;
     }
     let w = Whitener::Gls(GlsWhitener::from_cov(block_mean_cov(
@@ -117,16 +106,5 @@ pub(super) fn structure_beside(
         points: &[],
     };
     let nulls = bootstrap(&scanned, &g, None, prep, opts);
-    Some(Refitted {
-        p_value: nulls.structure.p_value(s.gen_dbic),
-        noise: g,
-    })
-}
-
-/// The generic structure test under a refitted noise.
-pub(super) struct Refitted {
-    /// Its p-value.
-    pub(super) p_value: f64,
-    /// The noise.
-    pub(super) noise: NoiseParams,
+    Some(nulls.structure.p_value(s.gen_dbic))
 }
