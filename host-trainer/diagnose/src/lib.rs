@@ -17,12 +17,11 @@
 //!    own null's tail (this accounts for the coloured noise and for the look-elsewhere effect
 //!    of the scans), and that of a generic structure test (time chunks, temperature and
 //!    dT/dt bands, a step in time, a shift even in dT/dt, a window in time). Either test
-//!    makes the
-//!    verdict other than `consistent`, so each is run at the level at which the two together
-//!    have false-alarm probability α (the record's smaller p-value ranked among the
-//!    replicates' smaller p-values), and their p-values are reported on that scale. A candidate counts when its
-//!    ΔBIC is below its threshold AND it lowers the held-out (4-fold, interleaved 1 h chunks)
-//!    residual of the 100 s means.
+//!    makes the verdict other than `consistent`, so each is run at the level at which the
+//!    two together have false-alarm probability α (the record's smaller p-value ranked among
+//!    the replicates' smaller p-values), and their p-values are reported on that scale. A
+//!    candidate counts when its ΔBIC is below its threshold AND it lowers the held-out
+//!    (4-fold, interleaved 1 h chunks) residual of the 100 s means.
 //!    Where the noise model fails its check, a finding also needs evidence that does not
 //!    rest on it (each temperature cycle predicted from the others; a slow function of time
 //!    alone is reported as inseparable slow drift), and a finding must leave no generic
