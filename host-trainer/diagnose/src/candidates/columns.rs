@@ -2,6 +2,7 @@
 //! summed as the term is stepped (closed form for a periodic term in time).
 
 use super::Family;
+use crate::linalg::Basis;
 use crate::prepare::{baseline_specs, baseline_values, DriveSeries, PhysicsModel, Prepared};
 use crate::DiagnoseError;
 use rlg_physics::{contribution, Drive, Term, TermStep};
@@ -66,9 +67,10 @@ impl Family {
     /// Unit-amplitude columns (°/h per unit of each linear parameter) over the fitted samples.
     /// Bias terms run over the whole recording from power-on, as in the simulator, and are
     /// then cut to the fitted samples. `sensor_lag` has no amplitude: its column is the change
-    /// of the fitted baseline `beta` when its drive is un-lagged by τ (the first-order effect,
-    /// amplitude 1 = the full lag), which nests it in the baseline for the tests;
-    /// `temp_quantization` likewise with the drive de-quantised. `heteroscedastic` has no
+    /// of the baseline, its coefficients refitted on the un-lagged drive, when its drive is
+    /// un-lagged by τ (amplitude 1 = the full lag), which nests it in the baseline for the
+    /// tests; `temp_quantization` likewise with the drive de-quantised and the fitted
+    /// baseline `beta`. `heteroscedastic` has no
     /// column: it changes the noise, not the mean.
     pub fn columns(
         self,
@@ -88,6 +90,19 @@ impl Family {
                 let lagged = match self {
                     Family::SensorLag => prep.drive_unlagged(nl[0])?,
                     _ => prep.drive_dequantised(nl[0])?,
+                };
+                // A lagging sensor's coefficients are refitted on the un-lagged drive: fitted
+                // on the late reading, the baseline's dT/dt coefficient has taken the lag's
+                // first-order part (b'(T)·τ·dT/dt), and a column built from it misplaces the
+                // rest of the lag's shape.
+                let refitted;
+                let beta = match self {
+                    Family::SensorLag => {
+                        refitted = Basis::new(&prep.baseline_blocks(model, &lagged))
+                            .coefficients(&prep.y_b);
+                        &refitted[..]
+                    }
+                    _ => beta,
                 };
                 // Column by column: a month at 1 Hz holds 21 MB per column.
                 let n = prep.rate_dph.len();

@@ -180,3 +180,49 @@ fn short_records_get_shorter_blocks() {
     assert_eq!(block_samples(1_000, 1.0), 100);
     assert_eq!(block_samples(100 * MIN_BLOCKS, 1.0), 100);
 }
+
+/// A sensor lagging the body by τ on a model whose baseline has dT/dt and T·dT/dt columns:
+/// with no noise, the baseline beside the sensor-lag column at the true τ leaves a small part
+/// of what the baseline alone leaves. Fitted on the late reading, the baseline's rate
+/// coefficients take the lag's first-order part, and a column built from them (the null
+/// fit's coefficients) misses much of the rest.
+#[test]
+fn the_sensor_lag_column_at_the_true_lag_explains_a_lagging_sensor() {
+    let (n, tau_s, period_s) = (60_000, 600.0, 14_400.0);
+    let w = 2.0 * std::f64::consts::PI / period_s;
+    let body = |t: f64| 20.0 + 15.0 * (w * t).sin();
+    let body_rate = |t: f64| 15.0 * w * (w * t).cos();
+    // The reading: the body's temperature through a first-order lag of τ, stepped at 0.1 s.
+    let mut read = Vec::with_capacity(n);
+    let mut x = body(0.0);
+    for k in 0..n {
+        for j in 0..10 {
+            let t = k as f64 + 0.1 * j as f64;
+            x += 0.1 / tau_s * (body(t) - x);
+        }
+        read.push(x);
+    }
+    let bias = |t: f64| {
+        let d = body(t) - 20.0;
+        0.01 * d - 5e-4 * d * d + 2e-5 * d.powi(3) + 2.0 * body_rate(t)
+    };
+    let rec = Recording {
+        time_s: (0..n).map(|k| k as f64 + 1.0).collect(),
+        temp_c: read,
+        rate_dph: (0..n).map(|k| bias(k as f64 + 1.0)).collect(),
+        ..Recording::default()
+    };
+    let prep = prepare(rec).unwrap();
+    let model = PhysicsModel::paper();
+    let base = crate::baseline::Baseline::fit(&prep, &model).unwrap();
+    let rms = |r: &[f64]| (r.iter().map(|x| x * x).sum::<f64>() / r.len() as f64).sqrt();
+    let null = rms(&base.resid_b);
+    let mut cols = base.cols_b.clone();
+    cols.extend(base.candidate_blocks(Family::SensorLag, &[tau_s]).unwrap());
+    let with = rms(&crate::linalg::Basis::new(&cols).residual(&prep.y_b));
+    assert!(
+        null > 1e-3,
+        "the lag leaves {null:e} °/h beside the baseline"
+    );
+    assert!(with < 0.1 * null, "{with:e} of {null:e} °/h left");
+}
