@@ -291,9 +291,10 @@ pub struct Evidence {
     /// temperature is outside the term library; no finding is made after it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub step: Option<StepEvidence>,
-    /// Set when white noise and bias instability failed the Allan check and a rate ramp
-    /// beside the model explained the departure better than rate random walk: the noise
-    /// model is then white + B fitted beside the ramp, and aging is tested against it.
+    /// Set when white noise and bias instability failed the Allan check and a rate ramp (or
+    /// a warm-up's decay from power-on) beside the model explained the departure better than
+    /// rate random walk: the noise model is then white + B fitted beside it, and the
+    /// candidates are tested against that.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rate_ramp: Option<RampEvidence>,
     /// What the structure no library term explains looks like, where the generic structure
@@ -392,6 +393,11 @@ pub struct RampEvidence {
     /// Share of replicates of the ramp model (its noise plus its fitted ramp) whose
     /// statistic is at most as large; the ramp is preferred only when this is larger.
     pub p_under_ramp: f64,
+    /// Where a warm-up's decay from power-on stood in the ramp's place (the ramp did not
+    /// explain the departure): its time constant, s, chosen over the warm-up's grid on the
+    /// record and on every replicate alike.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub decay_tau_s: Option<f64>,
 }
 
 /// The best single step of the bias, where it beat a slow function of time.

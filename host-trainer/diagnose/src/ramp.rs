@@ -16,6 +16,8 @@
 //! diagnosis is at least the one under K: each rests on the choice. Where white + B beside
 //! the ramp fails that check, the ramp is asked again beside white + B + K refitted with it
 //! (a drift on a record with slow noise of its own), and aging is tested against that.
+//! Where the ramp is not preferred, a warm-up's decay from power-on is asked in its place
+//! ([`decay_instead_of_rrw`]), its τ chosen on the record and on every replicate alike.
 //!
 //! The same statistic, with a slow function of time in the ramp's place (aging's ramp, a
 //! slow period's two columns, a warm-up's decay), is the search's check that such a finding
@@ -258,25 +260,31 @@ impl<'a> Versus<'a> {
     }
 }
 
-/// `Some` when a ramp beside the baseline of `rec` explains its block means better than the
-/// rate random walk of `rrw` alone, tested at false-alarm probability `alpha` (see the module
-/// doc); `ramp_b` is the ramp's block column. The ramp is asked beside white + B first, then
-/// beside white + B + K refitted with it: a record with slow noise of its own and a drift
-/// too fails white + B either way, and with K fitted on the baseline alone, K takes the
-/// drift (several times the record's own K on aging records of the benchmark) and the aging
-/// test whitened by it has no power left.
-pub(crate) fn ramp_instead_of_rrw(
+/// The slow term that explains the block means of `rec` better than the rate random walk
+/// of `rrw` alone, tested at false-alarm probability `alpha` (see the module doc), and for a
+/// decay its index in `decays`: the ramp (block column `ramp_b`) beside white + B; else a
+/// decay from power-on beside white + B ([`decay_instead_of_rrw`]); else the ramp beside
+/// white + B + K refitted with it. A record with slow noise of its own and a drift too
+/// fails white + B either way, and with K fitted on the baseline alone, K takes the drift
+/// (several times the record's own K on aging records of the benchmark) and the aging test
+/// whitened by it has no power left. A term that leaves white + B goes before one that
+/// still needs K: beside K, a ramp passes on a warm-up too, and K then takes the decay.
+pub(crate) fn slow_term_instead_of_rrw(
     rec: &BlockRecord<'_>,
-    ramp_b: &[f64],
+    ramp_b: Option<&[f64]>,
+    decays: &[Vec<f64>],
     rrw: &NoiseParams,
     draws: &Draws,
     alpha: f64,
-) -> Option<RampChoice> {
-    ramp_beside(rec, ramp_b, rrw, draws, alpha, false)
-        .or_else(|| ramp_beside(rec, ramp_b, rrw, draws, alpha, true))
+) -> Option<(RampChoice, Option<usize>)> {
+    let ramp = |with_rrw| ramp_b.and_then(|r| ramp_beside(rec, r, rrw, draws, alpha, with_rrw));
+    ramp(false)
+        .map(|c| (c, None))
+        .or_else(|| decay_instead_of_rrw(rec, decays, rrw, draws, alpha).map(|(c, k)| (c, Some(k))))
+        .or_else(|| ramp(true).map(|c| (c, None)))
 }
 
-/// [`ramp_instead_of_rrw`] with the noise beside the ramp white + B, or white + B + K where
+/// The ramp of [`slow_term_instead_of_rrw`] with the noise beside it white + B, or white + B + K where
 /// `with_rrw`.
 fn ramp_beside(
     rec: &BlockRecord<'_>,
@@ -335,41 +343,163 @@ pub(crate) fn step_p_under_rrw(
     times: &[usize],
     draws: &Draws,
 ) -> Option<f64> {
-    let (base_b, y_b, block, dt_s) = (rec.base_b, rec.y_b, rec.block, rec.dt_s);
-    let nb = y_b.len();
+    let nb = rec.y_b.len();
     let step = |k: usize| -> Vec<f64> { (0..nb).map(|b| f64::from(u8::from(b >= k))).collect() };
     let (_, step_noise) = rec.white_and_b_beside(&[step(at)])?;
-    let k_model = Fixed::new(rrw, base_b, block, dt_s)?;
-    let r_model = Fixed::new(&step_noise, base_b, block, dt_s)?;
     let raw: Vec<Vec<f64>> = times.iter().map(|&k| step(k)).collect();
-    let refs: Vec<&[f64]> = raw.iter().map(Vec::as_slice).collect();
-    let (w, _) = r_model.ss.whiten(&refs)?;
-    let cols: Vec<Vec<f64>> = w.iter().map(|c| r_model.basis.residual(c)).collect();
-    let norms: Vec<f64> = cols.iter().map(|c| dot(c, c)).collect();
-    // −2 ln L under K less that under white + B beside the best step of `times`.
-    let stat = |y: &[f64]| -> Option<f64> {
-        let (wy, _) = r_model.ss.whiten(&[y])?;
-        let e = r_model.basis.residual(&wy[0]);
-        let best = cols
-            .iter()
-            .zip(&norms)
-            .filter(|(_, g)| **g > 0.0)
-            .map(|(c, g)| dot(c, &e).powi(2) / g)
-            .fold(0.0, f64::max);
-        Some(k_model.fit(y)?.0 - (dot(&e, &e) - best + r_model.log_det))
-    };
-    let t_obs = stat(y_b)?;
+    let best = BestOf::new(rec, rrw, &step_noise, &raw)?;
+    let (t_obs, _) = best.stat(rec.y_b)?;
     if t_obs <= 0.0 {
         return Some(1.0);
     }
-    let v = Replicates::new(nb, block, dt_s, draws).stats(rrw, 3, |y| stat(y));
-    Some(share(&v, |t| t >= t_obs))
+    Some(share(&best.draw(rrw, 3, None, draws), |t| t >= t_obs))
+}
+
+/// `Some` when a decay from power-on beside the baseline of `rec` explains its block means
+/// better than the rate random walk of `rrw` alone, tested at false-alarm probability
+/// `alpha`, with the chosen decay's index in `decays` (block columns, a warm-up's over its
+/// grid of τ). The ramp's test (see the module doc), with the decay's τ chosen on the record
+/// and on every replicate alike: a warm-up fails white + B as a drift does, K fitted on
+/// the baseline alone takes it, and the warm-up whitened by that K has no power left.
+fn decay_instead_of_rrw(
+    rec: &BlockRecord<'_>,
+    decays: &[Vec<f64>],
+    rrw: &NoiseParams,
+    draws: &Draws,
+    alpha: f64,
+) -> Option<(RampChoice, usize)> {
+    // White + B is fitted once, beside the decay that takes most of the baseline's
+    // residual: a fit per τ on every replicate would cost a REML fit each.
+    let ols = Basis::new(rec.base_b);
+    let resid = ols.residual(rec.y_b);
+    let gain = |c: &Vec<f64>| {
+        let c = ols.residual(c);
+        let g = dot(&c, &c);
+        if g > 0.0 {
+            dot(&c, &resid).powi(2) / g
+        } else {
+            0.0
+        }
+    };
+    let gains: Vec<f64> = decays.iter().map(gain).collect();
+    let at = (0..decays.len()).max_by(|&a, &b| gains[a].total_cmp(&gains[b]))?;
+    let (_, noise) = rec.white_and_b_beside(&decays[at..=at])?;
+    let best = BestOf::new(rec, rrw, &noise, decays)?;
+    let (t_obs, chosen) = best.stat(rec.y_b)?;
+    let chosen = chosen?;
+    if t_obs <= 0.0 {
+        return None;
+    }
+    let p_rrw = share(&best.draw(rrw, 4, None, draws), |t| t >= t_obs);
+    if p_rrw > alpha {
+        return None;
+    }
+    let mut with = rec.base_b.to_vec();
+    with.push(decays[chosen].clone());
+    let (_, coef) = Fixed::new(&noise, &with, rec.block, rec.dt_s)?.fit(rec.y_b)?;
+    let effect = (&decays[chosen][..], *coef.last()?);
+    let p_decay = share(&best.draw(&noise, 5, Some(effect), draws), |t| t <= t_obs);
+    if p_rrw >= p_decay {
+        return None;
+    }
+    let ols = Basis::new(&with);
+    let check = allan_check(
+        &noise,
+        &ols.residual(rec.y_b),
+        rec.block as f64 * rec.dt_s,
+        |x| ols.residual(x),
+        draws.seed,
+    );
+    if !check.as_ref().is_none_or(AllanCheck::fits) {
+        return None;
+    }
+    let choice = RampChoice {
+        gyro: noise,
+        check,
+        p_rrw,
+        p_ramp: p_decay,
+        statistic: t_obs,
+    };
+    Some((choice, chosen))
+}
+
+/// Rate random walk on the baseline alone against white + B (fitted once) beside the one of
+/// several columns that fits each series best: [`p_under_rrw`]'s statistic with the column
+/// chosen on the record and on every replicate alike.
+struct BestOf<'a> {
+    k_model: Fixed,
+    r_model: Fixed,
+    /// The columns whitened by `r_model`'s noise, the baseline projected out, and their
+    /// squared norms.
+    cols: Vec<Vec<f64>>,
+    norms: Vec<f64>,
+    rec: &'a BlockRecord<'a>,
+}
+
+impl<'a> BestOf<'a> {
+    fn new(
+        rec: &'a BlockRecord<'a>,
+        rrw: &NoiseParams,
+        noise: &NoiseParams,
+        raw: &[Vec<f64>],
+    ) -> Option<Self> {
+        let (base_b, block, dt_s) = (rec.base_b, rec.block, rec.dt_s);
+        let k_model = Fixed::new(rrw, base_b, block, dt_s)?;
+        let r_model = Fixed::new(noise, base_b, block, dt_s)?;
+        let refs: Vec<&[f64]> = raw.iter().map(Vec::as_slice).collect();
+        let (w, _) = r_model.ss.whiten(&refs)?;
+        let cols: Vec<Vec<f64>> = w.iter().map(|c| r_model.basis.residual(c)).collect();
+        let norms: Vec<f64> = cols.iter().map(|c| dot(c, c)).collect();
+        Some(Self {
+            k_model,
+            r_model,
+            cols,
+            norms,
+            rec,
+        })
+    }
+
+    /// −2 ln L under rate random walk less that under white + B beside the best column, and
+    /// the column (`None`: none improves on the baseline).
+    fn stat(&self, y: &[f64]) -> Option<(f64, Option<usize>)> {
+        let (wy, _) = self.r_model.ss.whiten(&[y])?;
+        let e = self.r_model.basis.residual(&wy[0]);
+        let mut best = (0.0, None);
+        for (k, (c, g)) in self.cols.iter().zip(&self.norms).enumerate() {
+            if *g > 0.0 {
+                let gain = dot(c, &e).powi(2) / g;
+                if gain > best.0 {
+                    best = (gain, Some(k));
+                }
+            }
+        }
+        let t = self.k_model.fit(y)?.0 - (dot(&e, &e) - best.0 + self.r_model.log_det);
+        Some((t, best.1))
+    }
+
+    /// The statistic on replicates of `p`'s noise, plus `effect` (a raw column and its
+    /// coefficient) where given; `salt` picks the stream.
+    fn draw(
+        &self,
+        p: &NoiseParams,
+        salt: u64,
+        effect: Option<(&[f64], f64)>,
+        draws: &Draws,
+    ) -> Vec<f64> {
+        let rec = self.rec;
+        Replicates::new(rec.y_b.len(), rec.block, rec.dt_s, draws).stats(p, salt, |y| {
+            if let Some((col, c)) = effect {
+                y.iter_mut().zip(col).for_each(|(a, r)| *a += c * r);
+            }
+            self.stat(y).map(|s| s.0)
+        })
+    }
 }
 
 /// The p-value of a slow time-only effect (block columns `extra`) under the record's own
 /// slow noise: the share of replicates of `rrw` (white + B + rate random walk fitted by
 /// REML on the baseline) whose likelihood ratio favours the effect as much as the record's.
-/// The same statistic as [`ramp_instead_of_rrw`]'s; see the search for where it is asked.
+/// The same statistic as [`slow_term_instead_of_rrw`]'s; see the search for where it is asked.
 pub(crate) fn p_under_rrw(
     rec: &BlockRecord<'_>,
     extra: &[Vec<f64>],
@@ -411,7 +541,15 @@ mod tests {
         y.iter_mut().zip(&days).for_each(|(v, d)| *v += per_day * d);
         let base = vec![vec![1.0; NB]];
         let rrw = reml_noise(&base, &y, BLOCK, 1.0, true).expect("fits");
-        ramp_instead_of_rrw(&record(&base, &y), &days, &rrw, &draws(seed), 0.02)
+        slow_term_instead_of_rrw(
+            &record(&base, &y),
+            Some(&days),
+            &[],
+            &rrw,
+            &draws(seed),
+            0.02,
+        )
+        .map(|(c, _)| c)
     }
 
     fn white_b() -> NoiseParams {
@@ -546,5 +684,53 @@ mod tests {
         };
         let taken: Vec<u64> = (1..=40).filter(|&s| case(&p, 0.0, s).is_some()).collect();
         assert!(taken.len() <= 4, "taken as a ramp: seeds {taken:?}");
+    }
+
+    /// 25 h of 100 s means of `p` plus a decay from power-on of `amp` °/h and `tau_s`; the
+    /// baseline an offset; the decays over a log grid of τ from 300 s to 30 000 s.
+    fn decay_case(p: &NoiseParams, amp: f64, tau_s: f64, seed: u64) -> Option<(RampChoice, f64)> {
+        let t: Vec<f64> = (0..NB).map(|b| (b as f64 + 0.5) * BLOCK as f64).collect();
+        let decay = |tau: f64| -> Vec<f64> { t.iter().map(|t| (-t / tau).exp()).collect() };
+        let taus: Vec<f64> = (0..12)
+            .map(|k| 300.0 * 100f64.powf(k as f64 / 11.0))
+            .collect();
+        let decays: Vec<Vec<f64>> = taus.iter().map(|&tau| decay(tau)).collect();
+        let mut y = simulate_block_means(p, NB, BLOCK as f64, &mut replicate_rng(seed, 0), seed);
+        y.iter_mut()
+            .zip(decay(tau_s))
+            .for_each(|(v, d)| *v += amp * d);
+        let base = vec![vec![1.0; NB]];
+        let rrw = reml_noise(&base, &y, BLOCK, 1.0, true).expect("fits");
+        decay_instead_of_rrw(&record(&base, &y), &decays, &rrw, &draws(seed), 0.02)
+            .map(|(c, k)| (c, taus[k]))
+    }
+
+    /// A warm-up of 0.01 °/h decaying with τ = 4 000 s on white noise and bias instability:
+    /// the decay is preferred to the rate random walk REML fits to the record, at a τ within
+    /// a factor 1.6 of the truth, and white + B refitted beside it has no K.
+    #[test]
+    fn a_warm_up_is_a_decay_not_rate_random_walk() {
+        for seed in 1..=3 {
+            let (c, tau) =
+                decay_case(&white_b(), 1e-2, 4000.0, seed).expect("the decay is preferred");
+            assert!(c.p_rrw <= 0.02 && c.p_rrw < c.p_ramp, "{c:?}");
+            assert!((2500.0..=6400.0).contains(&tau), "τ {tau}");
+            assert_eq!(c.gyro.rrw_dph_per_rt_h, 0.0);
+        }
+    }
+
+    /// Rate random walk with no warm-up: its wander is not taken for a decay, its τ chosen
+    /// on each replicate as on the record (an α = 2 % test: at most 3 of 40 records,
+    /// exceeded with probability under 0.01).
+    #[test]
+    fn rate_random_walk_is_not_a_decay() {
+        let p = NoiseParams {
+            rrw_dph_per_rt_h: 5e-4,
+            ..white_b()
+        };
+        let taken: Vec<u64> = (1..=40)
+            .filter(|&s| decay_case(&p, 0.0, 1000.0, s).is_some())
+            .collect();
+        assert!(taken.len() <= 3, "taken as a decay: seeds {taken:?}");
     }
 }

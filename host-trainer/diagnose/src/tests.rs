@@ -867,3 +867,32 @@ fn a_verdict_near_its_threshold_is_decided_over_block_phases() {
         assert!(note.contains(&format!("{p:.3}")), "{note}");
     }
 }
+
+/// Slow warm-ups in the simulator's own recording (0.01 °/h with τ = 15 000 s, 0.02 °/h
+/// with τ = 10 000 s) fail white noise and bias instability, and rate random walk fitted in
+/// their place takes the decay; beside K, a ramp passed on the first as well and aging was
+/// the finding. A decay from power-on beside white + B stands in K's place, and the
+/// warm-up is the finding, its τ within 25 %.
+#[test]
+fn slow_warm_up_is_a_decay_not_rate_random_walk() {
+    for (amplitude_dph, tau_s, seed) in [(0.01, 15_000.0, 15), (0.02, 1e4, 14), (0.02, 1e4, 16)] {
+        let d = run(
+            vec![Term::Warmup {
+                amplitude_dph,
+                tau_s,
+                t_on_s: 0.0,
+            }],
+            seed,
+        );
+        let ramp = d.evidence.rate_ramp.as_ref().expect("a slow term for K");
+        assert!(ramp.decay_tau_s.is_some(), "{:#?}", d.evidence);
+        assert_eq!(
+            d.findings[0].mechanism,
+            Mechanism::Warmup,
+            "{:#?}",
+            d.evidence
+        );
+        let tau = d.findings[0].parameters["tau_s"];
+        assert!((tau / tau_s - 1.0).abs() < 0.25, "seed {seed}: τ {tau}");
+    }
+}

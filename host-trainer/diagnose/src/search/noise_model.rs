@@ -4,7 +4,8 @@
 //! The noise is fitted where the tests use it, on the 100 s means, by REML (`reml.rs`):
 //! white level and bias instability first; when that model fails the residual's own Allan
 //! check (slow wander the bank does not describe), rate random walk is added, unless a rate
-//! ramp beside the model explains the departure better (`ramp.rs`). The 1 Hz Allan fit and
+//! ramp, or else a warm-up's decay from power-on, beside the model explains the departure
+//! better (`ramp.rs`). The 1 Hz Allan fit and
 //! its recalibration remain for records too long for the dense REML. Under an effect the
 //! null fit is slightly conservative (a D = 6 effect spread over 500 blocks adds about 7 % to
 //! their variance).
@@ -17,7 +18,7 @@ use crate::noise::allan_fit::{calibrate_bias_instability, fit_gyro_noise};
 use crate::noise::covariance::block_mean_cov;
 use crate::noise::whiten::{ArModel, GlsWhitener, Whitener, GLS_MAX_BLOCKS};
 use crate::prepare::Prepared;
-use crate::ramp::{ramp_instead_of_rrw, Draws};
+use crate::ramp::{slow_term_instead_of_rrw, Draws};
 use crate::scan::{scan, Generic, Point};
 use crate::{Options, RampEvidence};
 use rlg_simulate::noise::NoiseParams;
@@ -51,15 +52,16 @@ pub(super) struct FittedNoise {
     pub(super) gyro: NoiseParams,
     /// It against the residual's own Allan deviation (None: too few blocks).
     pub(super) check: Option<AllanCheck>,
-    /// Set when a rate ramp was preferred to rate random walk: every finding then rests on
-    /// that choice too, and the verdict's p-value is at least its p-value.
+    /// Set when a rate ramp (or a warm-up's decay) was preferred to rate random walk: every
+    /// finding then rests on that choice too, and the verdict's p-value is at least its
+    /// p-value.
     pub(super) ramp: Option<RampEvidence>,
 }
 
 impl FittedNoise {
     /// Fits the noise to `base`'s residual (see the module doc); what was fitted instead of
     /// white noise and bias instability, and why, goes to `notes`. `points` give the aging
-    /// ramp's column for the ramp test.
+    /// ramp's column and the warm-up's decays for the tests against rate random walk.
     pub(super) fn fit(
         base: &Baseline<'_>,
         points: &[Point],
@@ -92,7 +94,13 @@ impl FittedNoise {
                         .iter()
                         .find(|p| p.family == Family::Aging)
                         .and_then(|p| p.cols_b.first());
-                    let (noise, note) = slow_term(base, aging, g1, p_wb, opts, check);
+                    let decays: Vec<(f64, Vec<f64>)> = points
+                        .iter()
+                        .filter(|p| p.family == Family::Warmup)
+                        .filter_map(|p| Some((p.nl[0], p.cols_b.first()?.clone())))
+                        .collect();
+                    let slow = SlowShapes { aging, decays };
+                    let (noise, note) = slow_term(base, &slow, g1, p_wb, opts, check);
                     notes.push(note);
                     noise
                 }
@@ -157,12 +165,21 @@ impl FittedNoise {
     }
 }
 
+/// The slow functions of time that may explain a departure from white noise and bias
+/// instability in rate random walk's place.
+struct SlowShapes<'a> {
+    /// The aging ramp's block column.
+    aging: Option<&'a Vec<f64>>,
+    /// The warm-up's decays from power-on over its grid: τ (s) and block column.
+    decays: Vec<(f64, Vec<f64>)>,
+}
+
 /// Where white noise and bias instability failed the Allan check (at p-value `p_wb`): the
-/// rate ramp beside the model (the aging column `aging`), when it explains the departure
+/// rate ramp beside the model, or else a warm-up's decay, when it explains the departure
 /// better than the rate random walk `rrw`, else `rrw`; and the note that says which.
 fn slow_term(
     base: &Baseline<'_>,
-    aging: Option<&Vec<f64>>,
+    slow: &SlowShapes<'_>,
     rrw: NoiseParams,
     p_wb: f64,
     opts: &Options,
@@ -172,36 +189,61 @@ fn slow_term(
         reps: opts.bootstrap,
         seed: opts.seed,
     };
-    let ramp =
-        aging.and_then(|r| ramp_instead_of_rrw(&base.block_record(), r, &rrw, &draws, opts.alpha));
-    if let Some(r) = ramp {
+    let record = base.block_record();
+    let decays: Vec<Vec<f64>> = slow.decays.iter().map(|d| d.1.clone()).collect();
+    let ramp = slow_term_instead_of_rrw(
+        &record,
+        slow.aging.map(Vec::as_slice),
+        &decays,
+        &rrw,
+        &draws,
+        opts.alpha,
+    )
+    .map(|(r, k)| (r, k.map(|k| slow.decays[k].0)));
+    if let Some((r, decay_tau_s)) = ramp {
+        let shape = match decay_tau_s {
+            Some(tau) => format!("a warm-up's decay from power-on (τ = {tau:.0} s)"),
+            None => "a ramp".to_string(),
+        };
         let beside = if r.gyro.rrw_dph_per_rt_h > 0.0 {
             format!(
-                "white + B + K (K = {:.2e} °/h/√h) fitted beside a ramp",
+                "white + B + K (K = {:.2e} °/h/√h) fitted beside {shape}",
                 r.gyro.rrw_dph_per_rt_h
             )
         } else {
-            "white + B fitted beside a ramp".to_string()
+            format!("white + B fitted beside {shape}")
         };
         let alone = if rrw.rrw_dph_per_rt_h > 0.0 {
             format!("rate random walk (K = {:.2e} °/h/√h)", rrw.rrw_dph_per_rt_h)
         } else {
             "the noise refitted with rate random walk allowed (its likeliest K is 0)".to_string()
         };
-        let note = format!(
-            "the residual's Allan deviation departs from white noise and bias \
-             instability (p = {p_wb:.3}); a rate ramp explains the departure \
-             better than {alone} (the record's likelihood ratio has probability \
-             {:.3} under that noise and {:.3} under the ramp): the noise model is \
-             {beside}, and aging is tested against it",
-            r.p_rrw, r.p_ramp
-        );
+        let note = match decay_tau_s {
+            None => format!(
+                "the residual's Allan deviation departs from white noise and bias \
+                 instability (p = {p_wb:.3}); a rate ramp explains the departure \
+                 better than {alone} (the record's likelihood ratio has probability \
+                 {:.3} under that noise and {:.3} under the ramp): the noise model is \
+                 {beside}, and aging is tested against it",
+                r.p_rrw, r.p_ramp
+            ),
+            Some(_) => format!(
+                "the residual's Allan deviation departs from white noise and bias \
+                 instability (p = {p_wb:.3}); a decay from power-on explains the \
+                 departure better than {alone} (the record's likelihood ratio, its τ \
+                 chosen on the record and on every replicate alike, has probability \
+                 {:.3} under that noise and {:.3} under the decay): the noise model is \
+                 {beside}, and the candidates are tested against it",
+                r.p_rrw, r.p_ramp
+            ),
+        };
         let noise = FittedNoise {
             ramp: Some(RampEvidence {
                 rrw_dph_per_rt_h: rrw.rrw_dph_per_rt_h,
                 statistic: r.statistic,
                 p_under_rrw: r.p_rrw,
                 p_under_ramp: r.p_ramp,
+                decay_tau_s,
             }),
             gyro: r.gyro,
             check: r.check,
