@@ -33,7 +33,7 @@ pub(super) const FAMILY_TAIL: f64 = 0.05;
 /// own null at tail probability [`FAMILY_TAIL`]: on the raw ΔBIC the families that scan
 /// widest (a period over hundreds of frequencies, the other node's lags) set the threshold
 /// for all, and a one-parameter drift or a loop that its own family alone finds at the
-/// bootstrap's floor came out `consistent`. Offsets put the families' tails side by side, so
+/// bootstrap's floor is `consistent`. Offsets put the families' tails side by side, so
 /// each is asked for about the same tail probability under its own null; the replicates go
 /// through the same offsets, so the test stays calibrated on the noise model.
 pub(super) fn bootstrap(

@@ -94,12 +94,16 @@ impl FittedNoise {
                         .iter()
                         .find(|p| p.family == Family::Aging)
                         .and_then(|p| p.cols_b.first());
-                    let decays: Vec<(f64, Vec<f64>)> = points
+                    let (taus, decays) = points
                         .iter()
                         .filter(|p| p.family == Family::Warmup)
                         .filter_map(|p| Some((p.nl[0], p.cols_b.first()?.clone())))
-                        .collect();
-                    let slow = SlowShapes { aging, decays };
+                        .unzip();
+                    let slow = SlowShapes {
+                        aging,
+                        taus,
+                        decays,
+                    };
                     let (noise, note) = slow_term(base, &slow, g1, p_wb, opts, check);
                     notes.push(note);
                     noise
@@ -170,8 +174,9 @@ impl FittedNoise {
 struct SlowShapes<'a> {
     /// The aging ramp's block column.
     aging: Option<&'a Vec<f64>>,
-    /// The warm-up's decays from power-on over its grid: τ (s) and block column.
-    decays: Vec<(f64, Vec<f64>)>,
+    /// The warm-up's grid of τ (s), and its decays from power-on there (block columns).
+    taus: Vec<f64>,
+    decays: Vec<Vec<f64>>,
 }
 
 /// Where white noise and bias instability failed the Allan check (at p-value `p_wb`): the
@@ -190,16 +195,15 @@ fn slow_term(
         seed: opts.seed,
     };
     let record = base.block_record();
-    let decays: Vec<Vec<f64>> = slow.decays.iter().map(|d| d.1.clone()).collect();
     let ramp = slow_term_instead_of_rrw(
         &record,
         slow.aging.map(Vec::as_slice),
-        &decays,
+        &slow.decays,
         &rrw,
         &draws,
         opts.alpha,
     )
-    .map(|(r, k)| (r, k.map(|k| slow.decays[k].0)));
+    .map(|(r, k)| (r, k.map(|k| slow.taus[k])));
     if let Some((r, decay_tau_s)) = ramp {
         let shape = match decay_tau_s {
             Some(tau) => format!("a warm-up's decay from power-on (τ = {tau:.0} s)"),
