@@ -15,7 +15,7 @@ use super::significance::Significance;
 use super::slow::{slow_time_only, SlowDrift, SLOW_PERIOD_OF_RECORD};
 use super::step::{step_instead, step_times, Step, StepScan, STEP_TIMES};
 use crate::baseline::Baseline;
-use crate::candidates::{node_lag, Family};
+use crate::candidates::{node_lag, Family, WARMUP_TAU_MAX_S};
 use crate::linalg::{added_fit, Basis};
 use crate::noise::allan_check::allan_check;
 use crate::noise::reml::reml_noise;
@@ -411,8 +411,19 @@ impl Judge<'_> {
         // the library that real records show most: a step (a mode jump, a power or readout
         // event). Where one step fits better, the structure is not attributed, and the
         // families after this one fit worse than the step too.
-        let candidate =
-            separable && fit.gain > 0.0 && recurs && out.finding.is_none() && out.step.is_none();
+        // A decay from power-on slower than any warm-up of the library is no warm-up: it is a
+        // monotone trend over the record, the aging family's, and a significant aging that
+        // passes every check below takes the finding from it.
+        let replaces = f == Family::Aging
+            && out
+                .finding
+                .as_ref()
+                .is_some_and(|w| Self::unresolved_decay(&w.term));
+        let candidate = separable
+            && fit.gain > 0.0
+            && recurs
+            && (out.finding.is_none() || replaces)
+            && out.step.is_none();
         let step_pref = if candidate {
             step_instead(
                 self.scanned,
@@ -458,16 +469,34 @@ impl Judge<'_> {
             out.p_counted = out.p_counted.min(self.sig.candidate_p(f, dbic, p_slow));
         }
         if separable && candidate {
-            match step_pref {
-                Some(st) => {
+            match (step_pref, out.finding.take()) {
+                (Some(_), Some(decay)) => out.finding = Some(decay),
+                (Some(st), None) => {
                     let (note, evidence) = st.evidence(prep, f, dbic);
                     out.notes.push(note);
                     out.step = Some(evidence);
                 }
-                None => out.finding = Some(fit),
+                (None, decay) => {
+                    if let Some(Term::Warmup { tau_s, .. }) = decay.map(|d| d.term) {
+                        out.notes.push(format!(
+                            "warmup's decay from power-on came out at the slowest τ a \
+                             warm-up of the library has ({tau_s:.0} s): slower than any \
+                             warm-up, it is a monotone trend over the record, and aging \
+                             (ΔBIC {dbic:.1}, significant too) names it"
+                        ));
+                    }
+                    out.finding = Some(fit);
+                }
             }
         }
         Ok(p_slow)
+    }
+
+    /// Whether `term` is a warm-up whose τ is at the library's slowest warm-up
+    /// ([`WARMUP_TAU_MAX_S`]). At the record's own bound (half the record, on records under
+    /// 60 000 s) a decay is only as slow as the record can tell, and stays a warm-up.
+    fn unresolved_decay(term: &Term) -> bool {
+        matches!(term, Term::Warmup { tau_s, .. } if *tau_s >= WARMUP_TAU_MAX_S * (1.0 - 1e-6))
     }
 
     /// Whether a periodic `term`'s period is one at which the record's temperature itself
