@@ -207,10 +207,6 @@ pub struct Diagnosis {
     /// The 100 s means behind the plots ([`plots`]); not part of the JSON.
     #[serde(skip)]
     pub series: BlockSeries,
-    /// A pass's families that would have been its finding had they come first (see
-    /// [`diagnose`]); not part of the JSON.
-    #[serde(skip)]
-    pub(crate) rivals: Vec<Finding>,
 }
 
 /// The recording's block means and the model residuals the plots show.
@@ -492,102 +488,6 @@ pub fn diagnose<'a>(
     if let Some(b) = &prep.bursts {
         d.evidence.notes.push(prepare::describe_bursts(b));
     }
-    let mut d = further(&prep, model, opts, &cache, d)?;
-    let mut full = model.clone();
-    full.terms
-        .extend(d.findings.iter().filter_map(Finding::term));
-    d.series = BlockSeries {
-        block_s: prep.block as f64 * prep.dt_s,
-        t_s: prep.t_b.clone(),
-        temp_c: prep.temp_b.clone(),
-        dtemp_c_per_s: prep.dtemp_b.clone(),
-        baseline_resid_dph: block_residual(&prep, model)?,
-        final_resid_dph: block_residual(&prep, &full)?,
-        unexplained_dph: std::mem::take(&mut d.series.unexplained_dph),
-    };
-    Ok(d)
-}
-
-/// The search after the first pass `d`: further findings ([`follow`]), and, where the first
-/// finding leads to no other, its rivals followed too.
-///
-/// The search is greedy: a finding's non-linear parameter is kept while later passes look at
-/// what is left. Where two effects are in the record, the family that fits best alone is
-/// often a third that takes part of each (a slow thermal lag that absorbs a warm-up, a play
-/// over the whole range that absorbs a trend), and nothing is left for a second finding. A
-/// rival that fits within [`CLOSE_DELTA_BIC`] of the finding and passes every check it
-/// passed is followed the same way; where it leads to a second finding, at that pass's own
-/// threshold, and the pair's held-out BIC is lower than the finding's alone by strong
-/// evidence ([`CLOSE_DELTA_BIC`]), the pair is the diagnosis, with a note. A single effect
-/// that a rival and a second term mimic must fit clearly better held out with the extra
-/// parameters than the term that describes it alone.
-fn further(
-    prep: &Prepared,
-    model: &PhysicsModel,
-    opts: &Options,
-    cache: &search::ColumnCache,
-    d: Diagnosis,
-) -> Result<Diagnosis, DiagnoseError> {
-    let first = (d.findings.len() == 1 && !d.rivals.is_empty()).then(|| d.clone());
-    let d = follow(prep, model, opts, cache, d)?;
-    let Some(first) = first else {
-        return Ok(d);
-    };
-    if d.verdict != Verdict::MissingPhysics || d.findings.len() != 1 {
-        return Ok(d);
-    }
-    let bic = |d: &Diagnosis| d.findings.last().map_or(f64::INFINITY, |f| f.improved.bic);
-    let mut best: Option<Diagnosis> = None;
-    for rival in &first.rivals {
-        let mut start = first.clone();
-        start.findings = vec![rival.clone()];
-        let path = follow(prep, model, opts, cache, start)?;
-        let to_beat = best.as_ref().map_or(bic(&d) - CLOSE_DELTA_BIC, &bic);
-        if path.verdict == Verdict::MissingPhysics
-            && path.findings.len() >= 2
-            && bic(&path) < to_beat
-        {
-            best = Some(path);
-        }
-    }
-    let Some(mut path) = best else {
-        return Ok(d);
-    };
-    let alone = &d.findings[0];
-    let lead = &mut path.findings[0];
-    lead.close_alternatives = std::iter::once(alone.mechanism)
-        .chain(alone.close_alternatives.iter().copied())
-        .filter(|&m| m != lead.mechanism)
-        .collect();
-    let names: Vec<&str> = path.findings.iter().map(|f| f.mechanism.name()).collect();
-    let close = search::close_note(&path.evidence.candidates, &path.findings[0]);
-    let total = bic(&path);
-    let notes = &mut path.evidence.notes;
-    notes.retain(|n| !n.contains(search::CLOSE_NOTE));
-    notes.extend(close);
-    notes.push(format!(
-        "{} alone explains the record less well than {} (held-out BIC {:.1} against {:.1}): \
-         with {} in the model no further term was significant, while {} fits nearly as well \
-         alone and leaves {} significant",
-        alone.mechanism.name(),
-        names.join(" with "),
-        alone.improved.bic,
-        total,
-        alone.mechanism.name(),
-        names[0],
-        names[1..].join(" and then ")
-    ));
-    Ok(path)
-}
-
-/// Further findings after `d`'s: each pass adds the last finding's term to the model.
-fn follow(
-    prep: &Prepared,
-    model: &PhysicsModel,
-    opts: &Options,
-    cache: &search::ColumnCache,
-    mut d: Diagnosis,
-) -> Result<Diagnosis, DiagnoseError> {
     // Further findings: the term found is added to the model (its amplitude refitted with
     // the baseline, its non-linear parameter kept) and the search runs again on what is
     // left, with its own bootstrap threshold, until nothing more is significant.
@@ -605,7 +505,7 @@ fn follow(
         let pass = search::Pass::Later {
             slow_drift: d.evidence.structure_slow_drift,
         };
-        let next = search::run(prep, &current, opts, cache, pass)?;
+        let next = search::run(&prep, &current, opts, &cache, pass)?;
         let structure_p = next.evidence.structure_p_value;
         let unexplained = next.series.unexplained_dph;
         let shape = next.evidence.unexplained;
@@ -638,6 +538,18 @@ fn follow(
             _ => break,
         }
     }
+    let mut full = model.clone();
+    full.terms
+        .extend(d.findings.iter().filter_map(Finding::term));
+    d.series = BlockSeries {
+        block_s: prep.block as f64 * prep.dt_s,
+        t_s: prep.t_b.clone(),
+        temp_c: prep.temp_b.clone(),
+        dtemp_c_per_s: prep.dtemp_b.clone(),
+        baseline_resid_dph: block_residual(&prep, model)?,
+        final_resid_dph: block_residual(&prep, &full)?,
+        unexplained_dph: std::mem::take(&mut d.series.unexplained_dph),
+    };
     Ok(d)
 }
 

@@ -143,8 +143,6 @@ pub(super) struct Judge<'a> {
     pub(super) cache: &'a ColumnCache,
     /// The model's own held-out figures.
     pub(super) base_ho: HeldOut,
-    /// Whether the finding's rivals are kept (on the first pass only: see `Judged::rivals`).
-    pub(super) rivals: bool,
 }
 
 /// A significant point fitted: its term, the term's 1σ uncertainties and held-out figures.
@@ -189,10 +187,6 @@ pub(super) struct Judged {
     pub(super) unattributable: Vec<Family>,
     /// Slow functions of time significant under white + B but not under rate random walk.
     pub(super) slow_drift: Vec<SlowDrift>,
-    /// Families after the finding that pass every check it passed and fit within
-    /// [`crate::CLOSE_DELTA_BIC`] of it: each would have been the finding had it come first,
-    /// and the search follows where each leads (`crate::diagnose`).
-    pub(super) rivals: Vec<Fitted>,
     /// Whether a significant family counts towards `unexplained_structure`.
     pub(super) counted: bool,
     /// The smallest α at which a family would make the verdict other than `consistent`.
@@ -223,7 +217,6 @@ impl Judge<'_> {
             untestable: Vec::new(),
             unattributable: Vec::new(),
             slow_drift: Vec::new(),
-            rivals: Vec::new(),
             counted: false,
             p_counted: 1.0,
             notes: Vec::new(),
@@ -474,31 +467,6 @@ impl Judge<'_> {
         out.counted |= separable;
         if separable {
             out.p_counted = out.p_counted.min(self.sig.candidate_p(f, dbic, p_slow));
-        }
-        // A rival: significant, it passes every check the finding passed (no single step is
-        // preferred to it either) and fits within strong evidence of it.
-        let rival = self.rivals
-            && separable
-            && fit.gain > 0.0
-            && recurs
-            && !replaces
-            && out.step.is_none()
-            && out.finding.as_ref().is_some_and(|w| {
-                w.family != f && dbic - self.scanned.scan.dbic[w.point] < crate::CLOSE_DELTA_BIC
-            });
-        if rival
-            && step_instead(
-                self.scanned,
-                i,
-                &self.noise.gyro,
-                prep,
-                self.opts,
-                &mut once.steps,
-            )
-            .is_none()
-        {
-            out.rivals.push(fit);
-            return Ok(p_slow);
         }
         if separable && candidate {
             match (step_pref, out.finding.take()) {

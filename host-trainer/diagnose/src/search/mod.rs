@@ -40,7 +40,6 @@ pub(crate) use cache::ColumnCache;
 /// How the note on structure no term explains begins (a later pass' note is carried to the
 /// diagnosis by it).
 pub(crate) const UNEXPLAINED_LOOKS: &str = "what no library term explains looks like ";
-pub(crate) use report::{close_note, CLOSE_NOTE};
 pub(crate) use step::step_times;
 
 /// Which pass of the search a run is.
@@ -92,7 +91,6 @@ pub(crate) fn run(
         opts,
         cache,
         base_ho: heldout_metrics(prep, model, None)?,
-        rivals: pass == Pass::First,
     };
     let judged = judge.judge(&best)?;
     notes.extend(judged.notes.iter().cloned());
@@ -126,11 +124,6 @@ pub(crate) fn run(
         }
         None => Vec::new(),
     };
-    let rivals = judged
-        .rivals
-        .iter()
-        .map(|r| report::finding(r, &judge))
-        .collect::<Result<Vec<_>, _>>()?;
     Ok(Diagnosis {
         verdict: report::verdict(&findings, judged.counted || structure.significant),
         baseline: judge.base_ho.figures.clone(),
@@ -165,7 +158,6 @@ pub(crate) fn run(
             },
             ..BlockSeries::default()
         },
-        rivals,
     })
 }
 

@@ -169,12 +169,9 @@ pub(super) fn verdict(findings: &[Finding], significant: bool) -> Verdict {
     }
 }
 
-/// The words that mark the note on a finding's close alternatives (see [`close_note`]).
-pub(crate) const CLOSE_NOTE: &str = "is the finding, but";
-
 /// The note on a finding's close alternatives, each with its ΔBIC and held-out gain beside
 /// the finding's.
-pub(crate) fn close_note(scores: &[CandidateScore], finding: &Finding) -> Option<String> {
+pub(super) fn close_note(scores: &[CandidateScore], finding: &Finding) -> Option<String> {
     let score = |m| scores.iter().find(|c| c.mechanism == m);
     let own = score(finding.mechanism)?;
     let rivals: Vec<String> = finding
@@ -192,9 +189,9 @@ pub(crate) fn close_note(scores: &[CandidateScore], finding: &Finding) -> Option
         .collect();
     (!rivals.is_empty()).then(|| {
         format!(
-            "{} (ΔBIC {:.1}, held-out gain {:.2e} (°/h)²) {CLOSE_NOTE} {} {} nearly as well: a \
-             ΔBIC difference under {} is less than strong evidence, so this record does not tell \
-             them apart well",
+            "{} (ΔBIC {:.1}, held-out gain {:.2e} (°/h)²) is the finding, but {} {} nearly as \
+             well: a ΔBIC difference under {} is less than strong evidence, so this record does \
+             not tell them apart well",
             finding.mechanism.name(),
             own.delta_bic,
             own.heldout_gain,

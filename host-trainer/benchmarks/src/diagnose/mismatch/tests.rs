@@ -1216,38 +1216,3 @@ fn a_period_of_the_chambers_own_hunting_is_not_a_periodic() {
         d.evidence.notes
     );
 }
-
-/// Design seed 1's two-effect case 34 (a hysteresis and a gradient lag, each at D ≥ 6): the
-/// family that fits best alone is a hysteresis on a node far ahead of the reading, which
-/// takes part of both and leaves nothing significant after it. The gradient lag, within
-/// strong evidence of it, leads to the hysteresis at the next pass, and the pair fits better
-/// held out: both effects are found, with the note that says why the search took that path.
-#[test]
-fn a_rival_that_leads_to_a_second_effect_is_followed() {
-    let model = PhysicsModel::paper();
-    let variant = Variant {
-        second_effect: true,
-        ..Variant::default()
-    };
-    let case =
-        build_case_in(34, Kind::Library(Family::Hysteresis), 1, &model, variant).expect("case");
-    let (second, d2) = case.second.as_ref().expect("a second effect");
-    assert_eq!(second.mechanism(), Family::GradientLag.mechanism());
-    assert!(case.d >= 6.0 && *d2 >= 6.0, "{} {d2}", case.d);
-    let d = diagnose(&case.recording, &model, &Options::default()).expect("diagnoses");
-    let names: Vec<_> = d.findings.iter().map(|f| f.mechanism).collect();
-    assert!(
-        names.contains(&Family::Hysteresis.mechanism())
-            && names.contains(&Family::GradientLag.mechanism()),
-        "{names:?}\n{:#?}",
-        d.evidence.notes
-    );
-    assert!(
-        d.evidence
-            .notes
-            .iter()
-            .any(|n| n.starts_with("hysteresis alone explains the record less well than")),
-        "{:#?}",
-        d.evidence.notes
-    );
-}
