@@ -407,10 +407,6 @@ impl Judge<'_> {
         // with two cycles each is predicted from one, which loses real hysteresis near the
         // detection threshold that the bootstrap finds clearly.
         let recurs = trusted || fit.cycle_gain.is_none_or(|g| g > 0.0);
-        // A drift or a slow period in time alone competes with the time-only shape outside
-        // the library that real records show most: a step (a mode jump, a power or readout
-        // event). Where one step fits better, the structure is not attributed, and the
-        // families after this one fit worse than the step too.
         // A decay from power-on slower than any warm-up of the library is no warm-up: it is a
         // monotone trend over the record, the aging family's, and a significant aging that
         // passes every check below takes the finding from it.
@@ -424,6 +420,10 @@ impl Judge<'_> {
             && recurs
             && (out.finding.is_none() || replaces)
             && out.step.is_none();
+        // A drift or a slow period in time alone competes with the time-only shape outside
+        // the library that real records show most: a step (a mode jump, a power or readout
+        // event). Where one step fits better, the structure is not attributed, and the
+        // families after this one fit worse than the step too.
         let step_pref = if candidate {
             step_instead(
                 self.scanned,
