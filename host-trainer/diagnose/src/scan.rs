@@ -305,6 +305,11 @@ impl Generic {
         matches!(self.shapes[i], Shape::Window(..))
     }
 
+    /// Whether alternative `i` is a step or a window in time.
+    pub(super) fn is_step_or_window(&self, i: usize) -> bool {
+        matches!(self.shapes[i], Shape::Window(..) | Shape::Step(_))
+    }
+
     /// The block columns of alternative `i` on a record of `nb` blocks.
     pub(super) fn columns(&self, i: usize, nb: usize) -> Vec<Vec<f64>> {
         match self.shapes[i] {

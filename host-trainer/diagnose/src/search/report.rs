@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use super::families::{Fitted, Judge};
 use super::noise_model::FittedNoise;
 use super::significance::Significance;
-use super::slow::{structure_under_rrw, STRUCTURE_RRW_BELOW};
+use super::slow::{structure_beside, structure_under_rrw, STRUCTURE_RRW_BELOW};
 use crate::baseline::Baseline;
 use crate::candidates::Family;
 use crate::explain::explain;
@@ -73,11 +73,39 @@ pub(super) struct Structure {
     pub(super) note: Option<String>,
 }
 
+/// The generic test's own p-value under the pass's noise refitted beside its best
+/// alternative, where that is a step or a window in time (see [`structure_beside`]); `None`
+/// for any other best alternative, a noise model with a rate ramp, a record too long for
+/// the GLS factor, or a pass that does not ask the test again under rate random walk, where
+/// the pass's own null stands. Only beside that second null: refitted beside a step, slow
+/// noise that one record cannot tell from a step is taken out of the replicates, and on the
+/// passes after a right finding (1/f and rate random walk in the record) the step
+/// alternative overturned it at p well under α.
+fn structure_beside_best(q: &StructureQuestion<'_>, opts: &Options) -> Option<f64> {
+    if !q.reasked || q.noise.ramp.is_some() {
+        return None;
+    }
+    let best = q
+        .scan
+        .gen_best
+        .filter(|&i| q.generic.is_step_or_window(i))?;
+    structure_beside(
+        q.base.prep,
+        &q.base.cols_b,
+        q.generic.columns(best, q.base.prep.nb()),
+        q.generic,
+        opts,
+        q.noise.gyro.rrw_dph_per_rt_h > 0.0,
+    )
+}
+
 /// The generic structure test on the verdict's scale, the larger of its p-values under
-/// white + B and under rate random walk where the second is asked (see
-/// [`StructureQuestion::reasked`]).
+/// the pass's noise (refitted beside a step or window, [`structure_beside_best`]) and under
+/// rate random walk where the second is asked (see [`StructureQuestion::reasked`]).
 pub(super) fn structure_test(q: &StructureQuestion<'_>, opts: &Options) -> Structure {
-    let (sig, p1) = (q.sig, q.sig.structure_alone);
+    let sig = q.sig;
+    let beside = structure_beside_best(q, opts);
+    let p1 = beside.unwrap_or(sig.structure_alone);
     let p_rrw = (q.reasked && q.noise.without_slow_noise() && p1 <= STRUCTURE_RRW_BELOW)
         .then(|| {
             let best = q
@@ -89,7 +117,9 @@ pub(super) fn structure_test(q: &StructureQuestion<'_>, opts: &Options) -> Struc
         })
         .flatten();
     let p_value = sig.floor(sig.structure_p(p_rrw.map_or(p1, |p| p1.max(p))));
-    let significant = q.scan.gen_dbic < sig.structure_threshold && p_value <= opts.alpha;
+    // Refitted beside the best alternative, the test has its own null: its p-value decides.
+    let significant =
+        (beside.is_some() || q.scan.gen_dbic < sig.structure_threshold) && p_value <= opts.alpha;
     let note = p_rrw
         .map(|p| (sig.structure_p(p1), sig.structure_p(p)))
         .filter(|(p1, p)| *p1 <= opts.alpha && *p > opts.alpha)
