@@ -99,11 +99,11 @@ pub(super) fn structure_under_rrw(
 /// noise wander as the record does. On the independent generator's records, steps,
 /// transients in time and telegraph switching well above the detection limit were
 /// `consistent` that way; the noise refitted beside the best step or window in time is the
-/// noise without them. The bootstrap
-/// still takes the best of every alternative; what is not charged is the share of the
-/// noise's own wander the one alternative takes from the refit (measured on the clean
-/// recordings, `rlg benchmark-diagnose --set mismatched`). Piecewise chunks are never put
-/// beside the refit: 22 columns would take most of the noise's slow part.
+/// noise without them. The bootstrap still takes the best of every alternative; what is not
+/// charged is the share of the noise's own wander the one alternative takes from the refit
+/// (measured on the clean recordings, `rlg benchmark-diagnose --set mismatched`). Piecewise
+/// chunks are never put beside the refit: 22 columns would take most of the noise's slow
+/// part.
 pub(super) fn structure_beside(
     prep: &Prepared,
     base_b: &[Vec<f64>],
