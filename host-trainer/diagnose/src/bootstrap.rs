@@ -9,7 +9,7 @@ use rayon::prelude::*;
 
 use super::candidates::Family;
 use super::linalg::dot;
-use super::noise::replicates::{replicate_rng, simulate_block_means};
+use super::noise::replicates::{replicate_rng, simulate_block_means_levelled};
 use super::prepare::Prepared;
 use super::scan::Scanned;
 use super::score::delta_bic;
@@ -35,10 +35,12 @@ pub(super) const FAMILY_TAIL: f64 = 0.05;
 /// for all, and a one-parameter drift or a loop that its own family alone finds at the
 /// bootstrap's floor is `consistent`. Offsets put the families' tails side by side, so
 /// each is asked for about the same tail probability under its own null; the replicates go
-/// through the same offsets, so the test stays calibrated on the noise model.
+/// through the same offsets, so the test stays calibrated on the noise model. Where the
+/// white level changes in time, `white_level` scales each block's white variance.
 pub(super) fn bootstrap(
     scanned: &Scanned<'_>,
     gyro: &NoiseParams,
+    white_level: Option<&[f64]>,
     var: Option<&VarianceTest>,
     prep: &Prepared,
     opts: &Options,
@@ -50,8 +52,9 @@ pub(super) fn bootstrap(
         .into_par_iter()
         .map(|k| {
             let mut rng = replicate_rng(opts.seed, k as u64);
-            let x = simulate_block_means(
+            let x = simulate_block_means_levelled(
                 gyro,
+                white_level,
                 prep.nb(),
                 prep.block as f64 * prep.dt_s,
                 &mut rng,

@@ -133,4 +133,54 @@ mod tests {
             );
         }
     }
+
+    /// Replicates drawn with a white level in time against the variance it gives each block's
+    /// mean (the stationary block-mean variance, its white part scaled by the level): the
+    /// sample variance over 4 000 replicates of white noise and bias instability, the white
+    /// variance doubled on the middle blocks and halved after them.
+    #[test]
+    fn white_level_replicates_have_its_variance() {
+        use crate::noise::replicates::{replicate_rng, simulate_block_means_levelled};
+        let p = NoiseParams {
+            arw_dph_rt_h: 4e-4,
+            bias_instability_dph: 3e-4,
+            ..Default::default()
+        };
+        let (nb, m) = (12usize, 100usize);
+        let w: Vec<f64> = (0..nb)
+            .map(|b| match b {
+                4..=7 => 2.0,
+                8.. => 0.5,
+                _ => 1.0,
+            })
+            .collect();
+        let white = (p.arw_dph_rt_h * 60.0).powi(2) / m as f64;
+        let c0 = block_mean_autocov(&p, nb, m, 1.0)[0];
+        let expected: Vec<f64> = w.iter().map(|wb| c0 + white * (wb - 1.0)).collect();
+        let reps = 4000u64;
+        let mut var = vec![0.0; nb];
+        for k in 0..reps {
+            let x = simulate_block_means_levelled(
+                &p,
+                Some(&w),
+                nb,
+                m as f64,
+                &mut replicate_rng(9, k),
+                k + 1,
+            );
+            for (v, xb) in var.iter_mut().zip(&x) {
+                *v += xb * xb / reps as f64;
+            }
+        }
+        for (b, v) in var.iter().enumerate() {
+            // 4 000 replicates place a variance to about 2.2 % (1σ).
+            let rel = v / expected[b] - 1.0;
+            assert!(
+                rel.abs() < 0.09,
+                "block {b}: simulated {v:e} vs {:e}",
+                expected[b]
+            );
+        }
+        assert!(expected[5] > 1.5 * expected[0] && expected[10] < 0.8 * expected[0]);
+    }
 }

@@ -37,6 +37,33 @@ pub fn simulate_block_means(
         .collect()
 }
 
+/// As [`simulate_block_means`], with each block's white variance scaled by `white_level`
+/// (one multiplier a block, mean 1) where the white level changes in time; the coloured part
+/// is drawn as there, from the same generators.
+pub fn simulate_block_means_levelled(
+    p: &NoiseParams,
+    white_level: Option<&[f64]>,
+    nb: usize,
+    block_s: f64,
+    rng: &mut ChaCha8Rng,
+    seed: u64,
+) -> Vec<f64> {
+    let Some(w) = white_level else {
+        return simulate_block_means(p, nb, block_s, rng, seed);
+    };
+    let white = p.arw_dph_rt_h * 60.0 / block_s.sqrt();
+    let coloured = NoiseParams {
+        arw_dph_rt_h: 0.0,
+        ..p.clone()
+    };
+    let mut x = simulate_block_means(&coloured, nb, block_s, rng, seed);
+    for (v, wb) in x.iter_mut().zip(w) {
+        let z: f64 = StandardNormal.sample(rng);
+        *v += white * wb.sqrt() * z;
+    }
+    x
+}
+
 /// A deterministic generator for replicate `k` of a bootstrap seeded by `seed`.
 pub fn replicate_rng(seed: u64, k: u64) -> ChaCha8Rng {
     let mut r = ChaCha8Rng::seed_from_u64(seed);

@@ -27,7 +27,7 @@ use crate::scan::{Scan, Scanned};
 use crate::score::{
     cycle_folds, cycle_rss, delta_bic, heldout_metrics, nonlinear_of, warmup_heldout_gain, HeldOut,
 };
-use crate::variance::{LevelInTime, VarianceTest};
+use crate::variance::VarianceTest;
 use crate::{CandidateScore, DiagnoseError, Figures, Options, StepEvidence};
 use rlg_simulate::noise::NoiseParams;
 
@@ -429,6 +429,7 @@ impl Judge<'_> {
                 self.scanned,
                 i,
                 &self.noise.gyro,
+                self.noise.white_level.as_deref(),
                 prep,
                 self.opts,
                 &mut once.steps,
@@ -533,18 +534,7 @@ impl Judge<'_> {
         let several = cycle_folds(prep).is_some();
         match v.in_time_not_temperature(&prep.t_b, several) {
             Some((dbic, level)) => {
-                let h = |b: usize| {
-                    prep.t_b
-                        .get(b)
-                        .map_or(f64::NAN, |t| (t - prep.t_b[0]) / 3600.0)
-                };
-                let shape = match level {
-                    LevelInTime::Drift => "drifts over the record".to_string(),
-                    LevelInTime::Step { at } => format!("changes at {:.1} h", h(at)),
-                    LevelInTime::Episode { from, to } => {
-                        format!("is another from {:.1} h to {:.1} h", h(from), h(to))
-                    }
-                };
+                let shape = level.describe(&prep.t_b);
                 out.notes.push(format!(
                     "the 1 Hz noise level {shape}, with time, not with temperature (beside \
                      that level in time, the temperature's quadratic adds ΔBIC {dbic:+.1}): \

@@ -72,7 +72,27 @@ pub(crate) fn run(
     let mut notes = grid.reading_notes(prep);
     let generic = Generic::new(prep);
     let ar_fit = noise_model::first_pass_ar(&base, &grid.points, &generic);
-    let noise = noise_model::FittedNoise::fit(&base, &grid.points, opts, &mut notes);
+    let white_level = grid
+        .var
+        .as_ref()
+        .and_then(|v| v.white_level_in_time(&prep.t_b, super::score::cycle_folds(prep).is_some()));
+    if let Some((level, w)) = &white_level {
+        let (lo, hi) = w
+            .iter()
+            .fold((f64::INFINITY, 0.0_f64), |(a, b), v| (a.min(*v), b.max(*v)));
+        notes.push(format!(
+            "the 1 Hz white-noise level {} (its variance {lo:.2} to {hi:.2} times the \
+             record's mean): the bootstrap draws the white noise at that level",
+            level.describe(&prep.t_b)
+        ));
+    }
+    let noise = noise_model::FittedNoise::fit(
+        &base,
+        &grid.points,
+        white_level.map(|(_, w)| w),
+        opts,
+        &mut notes,
+    );
     let whitener = noise.whitener(prep, &ar_fit);
     let scan = grid.scan(&whitener, &base, &generic);
     let scanned = Scanned {

@@ -56,6 +56,13 @@ pub(super) struct FittedNoise {
     /// finding then rests on that choice too, and the verdict's p-value is at least its
     /// p-value.
     pub(super) ramp: Option<RampEvidence>,
+    /// Each block's white variance relative to the record's (mean 1) where the 1 Hz noise
+    /// level follows time ([`crate::variance::VarianceTest::white_level_in_time`]): the
+    /// bootstraps' replicates draw the white noise at that level. The whitening and the
+    /// Allan check stay the stationary model's: whitened by the level, the quiet hours
+    /// weighed more and the noise's slow part, which the fit under the null does not always
+    /// take whole, showed there as structure (design seeds, METHOD.md).
+    pub(super) white_level: Option<Vec<f64>>,
 }
 
 impl FittedNoise {
@@ -65,6 +72,7 @@ impl FittedNoise {
     pub(super) fn fit(
         base: &Baseline<'_>,
         points: &[Point],
+        white_level: Option<Vec<f64>>,
         opts: &Options,
         notes: &mut Vec<String>,
     ) -> Self {
@@ -86,6 +94,7 @@ impl FittedNoise {
                 gyro: g,
                 check: c,
                 ramp: None,
+                white_level: None,
             },
             Some((g, c)) => match base.reml_noise(true) {
                 Some(g1) => {
@@ -112,6 +121,7 @@ impl FittedNoise {
                     gyro: g,
                     check: c,
                     ramp: None,
+                    white_level: None,
                 },
             },
             None => {
@@ -120,8 +130,13 @@ impl FittedNoise {
                     check: check(&g),
                     gyro: g,
                     ramp: None,
+                    white_level: None,
                 }
             }
+        };
+        let noise = Self {
+            white_level,
+            ..noise
         };
         if let Some(c) = noise.check.as_ref().filter(|c| !c.fits()) {
             notes.push(format!(
@@ -251,6 +266,7 @@ fn slow_term(
             }),
             gyro: r.gyro,
             check: r.check,
+            white_level: None,
         };
         return (noise, note);
     }
@@ -272,6 +288,7 @@ fn slow_term(
         check: check(&rrw),
         gyro: rrw,
         ramp: None,
+        white_level: None,
     };
     (noise, note)
 }

@@ -25,21 +25,39 @@ const LOCATE_Z: f64 = 3.5;
 
 /// Spans where the moving average of the baseline residual's block means exceeds
 /// [`LOCATE_Z`] times its σ under the fitted noise (that σ from a long simulation of it).
+/// Where the white level changes in time, the white part of that σ's square follows the
+/// level's moving average (a window's white variance is the mean of its blocks' over the
+/// window's length).
 pub(super) fn located(base: &Baseline<'_>, noise: &FittedNoise, opts: &Options) -> Vec<Span> {
     let prep = base.prep;
-    let sigma_ma = {
+    let block_s = prep.block as f64 * prep.dt_s;
+    let var_ma = {
         let sim = simulate_block_means(
             &noise.gyro,
             20_000,
-            prep.block as f64 * prep.dt_s,
+            block_s,
             &mut replicate_rng(opts.seed ^ 0xa11ce, 0),
             opts.seed ^ 0xa11ce,
         );
         let ma = moving_average(&sim, LOCATE_WINDOW);
-        (ma.iter().map(|v| v * v).sum::<f64>() / ma.len() as f64).sqrt()
+        ma.iter().map(|v| v * v).sum::<f64>() / ma.len() as f64
     };
+    let white_ma = (noise.gyro.arw_dph_rt_h * 60.0).powi(2) / block_s / LOCATE_WINDOW as f64;
+    let level = noise
+        .white_level
+        .as_ref()
+        .map(|w| moving_average(w, LOCATE_WINDOW));
     let ma = moving_average(&base.resid_b, LOCATE_WINDOW);
-    let mask: Vec<bool> = ma.iter().map(|v| v.abs() > LOCATE_Z * sigma_ma).collect();
+    let mask: Vec<bool> = ma
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let var = level.as_ref().map_or(var_ma, |l| {
+                (var_ma + white_ma * (l[i] - 1.0)).max(f64::MIN_POSITIVE)
+            });
+            v.abs() > LOCATE_Z * var.sqrt()
+        })
+        .collect();
     spans(prep, &mask, 2, &base.resid_b)
 }
 
@@ -94,6 +112,7 @@ fn structure_beside_best(q: &StructureQuestion<'_>, opts: &Options) -> Option<f6
         &q.base.cols_b,
         q.generic.columns(best, q.base.prep.nb()),
         q.generic,
+        q.noise.white_level.as_deref(),
         opts,
         q.noise.gyro.rrw_dph_per_rt_h > 0.0,
     )
@@ -113,7 +132,14 @@ pub(super) fn structure_test(q: &StructureQuestion<'_>, opts: &Options) -> Struc
                 .gen_best
                 .filter(|&i| q.generic.is_window(i))
                 .map_or_else(Vec::new, |i| q.generic.columns(i, q.base.prep.nb()));
-            structure_under_rrw(q.base.prep, &q.base.cols_b, best, q.generic, opts)
+            structure_under_rrw(
+                q.base.prep,
+                &q.base.cols_b,
+                best,
+                q.generic,
+                q.noise.white_level.as_deref(),
+                opts,
+            )
         })
         .flatten();
     let p_value = sig.floor(sig.structure_p(p_rrw.map_or(p1, |p| p1.max(p))));

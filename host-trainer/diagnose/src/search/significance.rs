@@ -38,7 +38,14 @@ impl Significance {
         opts: &Options,
     ) -> Self {
         let s = scanned.scan;
-        let nulls = bootstrap(scanned, &noise.gyro, var, prep, opts);
+        let nulls = bootstrap(
+            scanned,
+            &noise.gyro,
+            noise.white_level.as_deref(),
+            var,
+            prep,
+            opts,
+        );
         // The record's p-value in each test alone: the other test's breaks ties between the
         // two (see `Nulls::either_p`).
         let structure_alone = nulls.structure.p_value(s.gen_dbic);

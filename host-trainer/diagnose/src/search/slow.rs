@@ -83,9 +83,10 @@ pub(super) fn structure_under_rrw(
     base_b: &[Vec<f64>],
     best: Vec<Vec<f64>>,
     generic: &Generic,
+    white_level: Option<&[f64]>,
     opts: &Options,
 ) -> Option<f64> {
-    structure_beside(prep, base_b, best, generic, opts, true)
+    structure_beside(prep, base_b, best, generic, white_level, opts, true)
 }
 
 /// The generic structure test's p-value under the record's noise refitted by REML beside
@@ -109,6 +110,7 @@ pub(super) fn structure_beside(
     base_b: &[Vec<f64>],
     best: Vec<Vec<f64>>,
     generic: &Generic,
+    white_level: Option<&[f64]>,
     opts: &Options,
     with_rrw: bool,
 ) -> Option<f64> {
@@ -132,6 +134,6 @@ pub(super) fn structure_beside(
         scan: &s,
         points: &[],
     };
-    let nulls = bootstrap(&scanned, &g, None, prep, opts);
+    let nulls = bootstrap(&scanned, &g, white_level, None, prep, opts);
     Some(nulls.structure.p_value(s.gen_dbic))
 }

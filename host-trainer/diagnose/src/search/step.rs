@@ -6,7 +6,7 @@ use rayon::prelude::*;
 
 use crate::candidates::Family;
 use crate::linalg::{combine, dot};
-use crate::noise::replicates::{replicate_rng, simulate_block_means};
+use crate::noise::replicates::{replicate_rng, simulate_block_means_levelled};
 use crate::noise::whiten::Whitener;
 use crate::prepare::Prepared;
 use crate::scan::{Scan, Scanned};
@@ -107,7 +107,8 @@ impl StepScan {
 /// `Some(step)` when the family of the scan's point `i` is aging or a periodic term and the
 /// record is better explained by a single step than by that family `f`. The statistic is the
 /// step's best ΔBIC less `f`'s; each of the two explanations gives it a null by a parametric
-/// bootstrap of its fitted effect plus the fitted noise `gyro` (on each replicate the best
+/// bootstrap of its fitted effect plus the fitted noise `gyro` (its white level in time
+/// `white_level`, where there is one; on each replicate the best
 /// step and the best point of `f`'s grid are refitted), and the step is preferred when the
 /// record's statistic is less probable under `f` (share of `f`'s replicates at least as
 /// favourable to the step) than under the step (share of the step's replicates at least as
@@ -121,6 +122,7 @@ pub(super) fn step_instead(
     scanned: &Scanned<'_>,
     i: usize,
     gyro: &NoiseParams,
+    white_level: Option<&[f64]>,
     prep: &Prepared,
     opts: &Options,
     cached: &mut Option<Option<StepScan>>,
@@ -146,8 +148,9 @@ pub(super) fn step_instead(
     let sims: Vec<Vec<f64>> = (0..reps)
         .into_par_iter()
         .map(|k| {
-            simulate_block_means(
+            simulate_block_means_levelled(
                 gyro,
+                white_level,
                 prep.nb(),
                 prep.block as f64 * prep.dt_s,
                 &mut replicate_rng(opts.seed ^ STEP_SEED, k as u64),

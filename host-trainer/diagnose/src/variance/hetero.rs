@@ -251,6 +251,39 @@ impl VarianceTest {
         time_s: &[f64],
         several_cycles: bool,
     ) -> Option<(f64, LevelInTime)> {
+        self.level_in_time(time_s, several_cycles)
+            .map(|l| (l.dbic_temp_beside, l.level))
+    }
+
+    /// Each block's white-noise variance relative to the record's (mean 1) where the 1 Hz
+    /// noise level follows time and not temperature ([`Self::in_time_not_temperature`]) and
+    /// that level in time is strong evidence (its ΔBIC over a constant level under
+    /// [`WHITE_LEVEL_DBIC`]): the level's least-squares fit to the block log-scales, taken
+    /// back to variances. The bootstraps of the block means' tests draw their white noise
+    /// at it: a white level that doubles for a few hours makes those hours' means scatter
+    /// twice as wide, and replicates of a stationary noise model do not.
+    /// On an undithered count the log-scales are those less the count's own part, and the
+    /// level is their fit alone (the count's model is not refitted beside it), an
+    /// approximation where the count's part is large. `None` otherwise.
+    pub fn white_level_in_time(
+        &self,
+        time_s: &[f64],
+        several_cycles: bool,
+    ) -> Option<(LevelInTime, Vec<f64>)> {
+        let l = self.level_in_time(time_s, several_cycles)?;
+        if l.dbic_time >= WHITE_LEVEL_DBIC {
+            return None;
+        }
+        let zc = centred(&self.z);
+        let r = Basis::new(&l.level.columns(time_s)).residual(&zc);
+        let w: Vec<f64> = zc.iter().zip(&r).map(|(z, e)| (z - e).exp()).collect();
+        let mean = w.iter().sum::<f64>() / w.len() as f64;
+        (mean > 0.0 && mean.is_finite()).then(|| (l.level, w.iter().map(|v| v / mean).collect()))
+    }
+
+    /// The best level in time and how it compares with the quadratic in temperature (see
+    /// [`Self::in_time_not_temperature`]), where the noise follows time.
+    fn level_in_time(&self, time_s: &[f64], several_cycles: bool) -> Option<TimeLevel> {
         let n = self.z.len();
         if time_s.len() != n || n < 8 {
             return None;
@@ -298,7 +331,11 @@ impl VarianceTest {
             } else {
                 dbic_time_beside < 0.0
             };
-        in_time.then_some((dbic_temp_beside, level))
+        in_time.then_some(TimeLevel {
+            level,
+            dbic_time,
+            dbic_temp_beside,
+        })
     }
 
     /// One bootstrap replicate of the statistic under constant noise: the recording's own
@@ -374,6 +411,21 @@ pub fn heteroscedastic_detectability(temp_c: &[f64], k: f64, ref_c: f64) -> f64 
     (0.5 * dot(&g, &g)).sqrt()
 }
 
+/// A level in time's ΔBIC over a constant white level under which the tests of the block
+/// means take it as known ([`VarianceTest::white_level_in_time`]): strong evidence on the
+/// BIC's own scale, so that a clean record's chance best step or episode of the noise level
+/// leaves the noise model stationary.
+pub const WHITE_LEVEL_DBIC: f64 = -10.0;
+
+/// The best level in time of the block log-scales, where the noise follows it.
+struct TimeLevel {
+    level: LevelInTime,
+    /// Its ΔBIC over a constant level.
+    dbic_time: f64,
+    /// The temperature's quadratic's ΔBIC beside it.
+    dbic_temp_beside: f64,
+}
+
 /// A white-noise level in time, the alternative to a level in temperature
 /// ([`VarianceTest::in_time_not_temperature`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -398,6 +450,19 @@ pub enum LevelInTime {
 const LEVEL_TIMES: usize = 120;
 
 impl LevelInTime {
+    /// What the level does, for a note: on blocks at times `time_s`, "drifts over the
+    /// record", "changes at 4.2 h", "is another from 3.1 h to 7.5 h".
+    pub fn describe(self, time_s: &[f64]) -> String {
+        let h = |b: usize| time_s.get(b).map_or(f64::NAN, |t| (t - time_s[0]) / 3600.0);
+        match self {
+            LevelInTime::Drift => "drifts over the record".to_string(),
+            LevelInTime::Step { at } => format!("changes at {:.1} h", h(at)),
+            LevelInTime::Episode { from, to } => {
+                format!("is another from {:.1} h to {:.1} h", h(from), h(to))
+            }
+        }
+    }
+
     /// Parameters charged: the drift's two coefficients, a step's level and time, an
     /// episode's level and two times.
     fn parameters(self) -> usize {
