@@ -68,7 +68,8 @@ pub(super) struct FittedNoise {
 impl FittedNoise {
     /// Fits the noise to `base`'s residual (see the module doc); what was fitted instead of
     /// white noise and bias instability, and why, goes to `notes`. `points` give the aging
-    /// ramp's column and the warm-up's decays for the tests against rate random walk.
+    /// ramp's column and the warm-up's decays for the tests against rate random walk;
+    /// `white_level` is kept for the replicates ([`FittedNoise::white_level`]).
     pub(super) fn fit(
         base: &Baseline<'_>,
         points: &[Point],

@@ -92,7 +92,8 @@ pub(super) fn structure_under_rrw(
 /// The generic structure test's p-value under the record's noise refitted by REML beside
 /// `best`, the columns of one alternative, with rate random walk allowed where `with_rrw`
 /// (`None` where the record is too long for the GLS factor, or `with_rrw` and REML puts no
-/// rate random walk in), on its own GLS whitening and bootstrap.
+/// rate random walk in), on its own GLS whitening and bootstrap (its replicates' white noise
+/// at `white_level` where the record's level changes in time).
 ///
 /// The pass's noise is fitted under the null, to the baseline residual: a step or a transient
 /// of an hour or two in the bias is then partly taken as noise (bias instability raised, or
