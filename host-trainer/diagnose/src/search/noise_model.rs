@@ -61,7 +61,7 @@ pub(super) struct FittedNoise {
     /// bootstraps' replicates draw the white noise at that level. The whitening and the
     /// Allan check stay the stationary model's: whitened by the level, the quiet hours
     /// weighed more and the noise's slow part, which the fit under the null does not always
-    /// take whole, showed there as structure (design seeds, METHOD.md).
+    /// take whole, showed there as structure (METHOD.md).
     pub(super) white_level: Option<Vec<f64>>,
 }
 
