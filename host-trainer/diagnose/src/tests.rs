@@ -600,12 +600,42 @@ fn json_contract_field_names() {
     }
 }
 
+/// The held-out folds give each fold one chunk of every run of four, and do not repeat
+/// with a programme whose cycle is four chunks (a 3 h hold and a 1 h ramp): the chunk at
+/// each place of the cycle goes to every fold over two days' runs.
+#[test]
+fn heldout_folds_are_balanced_and_do_not_alias_with_the_programme() {
+    use score::{fold_of, CHUNK_BLOCKS, FOLDS};
+    let runs = 12;
+    for run in 0..runs {
+        let mut seen = [false; FOLDS];
+        for place in 0..FOLDS {
+            let b = (run * FOLDS + place) * CHUNK_BLOCKS;
+            let f = fold_of(b, CHUNK_BLOCKS);
+            assert!(!seen[f], "run {run}: fold {f} dealt twice");
+            seen[f] = true;
+            // Every block of a chunk is in the chunk's fold.
+            assert_eq!(fold_of(b + CHUNK_BLOCKS - 1, CHUNK_BLOCKS), f);
+        }
+    }
+    for place in 0..FOLDS {
+        let mut seen = [false; FOLDS];
+        for run in 0..runs {
+            seen[fold_of((run * FOLDS + place) * CHUNK_BLOCKS, CHUNK_BLOCKS)] = true;
+        }
+        assert!(
+            seen.iter().all(|&s| s),
+            "place {place} of the cycle reaches only folds {seen:?} in {runs} runs"
+        );
+    }
+}
+
 /// The held-out check makes its per-sample columns one at a time (twice); its figures are
 /// those of the check that holds every column at once, bit for bit, for the model alone, an
 /// added candidate and a candidate that changes the drive.
 #[test]
 fn streamed_heldout_check_equals_the_one_holding_every_column() {
-    use score::{CHUNK_BLOCKS, FOLDS};
+    use score::{fold_of, CHUNK_BLOCKS, FOLDS};
     let sim = simulate(&scenario(vec![], 1.0), 31).expect("simulates");
     let prep = prepare::prepare(&sim.recording).expect("prepares");
     let model = PhysicsModel::paper();
@@ -628,16 +658,14 @@ fn streamed_heldout_check_equals_the_one_holding_every_column() {
         let mut resid1 = vec![0.0; prep.rate_dph.len()];
         let mut rss = 0.0;
         for f in 0..FOLDS {
-            let train: Vec<usize> = (0..nb)
-                .filter(|&b| (b / CHUNK_BLOCKS) % FOLDS != f)
-                .collect();
+            let train: Vec<usize> = (0..nb).filter(|&b| fold_of(b, CHUNK_BLOCKS) != f).collect();
             let tc: Vec<Vec<f64>> = cols_b
                 .iter()
                 .map(|c| train.iter().map(|&b| c[b]).collect())
                 .collect();
             let ty: Vec<f64> = train.iter().map(|&b| prep.y_b[b]).collect();
             let beta = linalg::Basis::new(&tc).coefficients(&ty);
-            for b in (0..nb).filter(|&b| (b / CHUNK_BLOCKS) % FOLDS == f) {
+            for b in (0..nb).filter(|&b| fold_of(b, CHUNK_BLOCKS) == f) {
                 let pred: f64 = cols_b.iter().zip(&beta).map(|(c, w)| c[b] * w).sum();
                 rss += (prep.y_b[b] - pred).powi(2);
                 for i in b * prep.block..(b + 1) * prep.block {
