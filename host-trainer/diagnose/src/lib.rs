@@ -291,6 +291,11 @@ pub struct Evidence {
     /// temperature is outside the term library; no finding is made after it).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub step: Option<StepEvidence>,
+    /// The best bump of the bias at one temperature where it explained the record better
+    /// than the backscatter or mode-hop term the search would otherwise have named (no
+    /// finding is made after it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bump: Option<BumpEvidence>,
     /// Set when white noise and bias instability failed the Allan check and a rate ramp (or
     /// a warm-up's decay from power-on) beside the model explained the departure better than
     /// rate random walk: the noise model is then white + B fitted beside it, and the
@@ -332,6 +337,16 @@ pub enum Unexplained {
         /// Its height in the whitened fit, °/h.
         height_dph: f64,
     },
+    /// A bump of the bias while the temperature is between two levels, on heating and
+    /// cooling alike (a raised cosine between them).
+    TempWindow {
+        /// Its lower edge, °C.
+        lo_c: f64,
+        /// Its upper edge, °C.
+        hi_c: f64,
+        /// Its height in the whitened fit, °/h.
+        height_dph: f64,
+    },
     /// Structure spread over time, temperature and dT/dt (the piecewise alternative).
     Piecewise,
 }
@@ -368,6 +383,16 @@ impl Unexplained {
                  record and back, a transient in time that no term of the library has",
                 t_start_s / 3600.0,
                 t_end_s / 3600.0
+            ),
+            Unexplained::TempWindow {
+                lo_c,
+                hi_c,
+                height_dph,
+            } => format!(
+                "a bump of {height_dph:+.3e} °/h at its peak in the bias while the temperature is \
+                 between {lo_c:.1} and {hi_c:.1} °C, on heating and cooling alike: a bump at a \
+                 temperature that no term of the library has (backscatter ripples \
+                 over the whole range, a mode hop steps and stays)"
             ),
             Unexplained::Piecewise => "structure spread over time, temperature and dT/dt (12 \
                  time chunks, 8 temperature bands, 4 dT/dt bands fitted together beside the \
@@ -419,6 +444,31 @@ pub struct StepEvidence {
     /// Share of replicates of this step plus the noise in which the family comes at least as
     /// close to the step as on the record. The step is reported when this is the larger.
     pub p_under_step: f64,
+}
+
+/// The best bump of the bias at one temperature, where it beat a family stationary in
+/// temperature (a backscatter ripple or a mode hop).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BumpEvidence {
+    /// Its lower edge, °C.
+    pub lo_c: f64,
+    /// Its upper edge, °C.
+    pub hi_c: f64,
+    /// Its height at its peak, °/h (generalised least squares beside the model's own terms;
+    /// a raised cosine between the edges).
+    pub height_dph: f64,
+    /// Its ΔBIC over the model in the whitened metric (three parameters: height and edges).
+    pub delta_bic: f64,
+    /// The family it fitted better than.
+    pub instead_of: Mechanism,
+    /// That family's best ΔBIC.
+    pub instead_of_delta_bic: f64,
+    /// Share of bootstrap replicates of that family's fitted effect plus the fitted noise in
+    /// which the best bump beats the family's best point by at least as much as on the record.
+    pub p_under_family: f64,
+    /// Share of replicates of this bump plus the noise in which the family comes at least as
+    /// close to the bump as on the record. The bump is reported when this is the larger.
+    pub p_under_bump: f64,
 }
 
 /// One family's best score.

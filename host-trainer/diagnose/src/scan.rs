@@ -196,6 +196,11 @@ pub(super) enum Shape {
     /// (a disturbance of the bench, a burst of a readout), which neither a step nor the
     /// piecewise chunks fit without spreading it.
     Window(usize, usize),
+    /// A bump of the bias while the temperature is between two levels (°C), on heating and
+    /// cooling alike, and none outside them: the baseline's polynomial spreads it over the
+    /// range, the backscatter term repeats it over the range and a mode hop keeps it beyond
+    /// its temperature.
+    TempWindow(f64, f64),
 }
 
 impl Shape {
@@ -205,6 +210,7 @@ impl Shape {
         match self {
             Shape::Step(_) => 2,
             Shape::Window(..) => 3,
+            Shape::TempWindow(..) => TEMP_WINDOW_PARAMS,
             _ => cols,
         }
     }
@@ -249,6 +255,76 @@ fn window_pairs(steps: &[usize], nb: usize) -> Vec<(usize, usize)> {
     out
 }
 
+/// Levels of temperature the windows in temperature start and end at, evenly spaced inside
+/// the range of the block means: a 40th of it apart (2.5 °C on a 100 °C cycle).
+const TEMP_LEVELS: usize = 39;
+
+/// The parameters a window in temperature is charged: its height and its two edges.
+pub(crate) const TEMP_WINDOW_PARAMS: usize = 3;
+
+/// The edges (°C) of the windows in temperature on a record whose block means span
+/// `lo..hi`: pairs of [`TEMP_LEVELS`] levels evenly spaced inside the range, widths of 2, 3,
+/// 4, 5, 6, 8, 10 and 13 level spacings (about 1.25 times the last, 5 % to a third of the
+/// range; wider, the baseline's polynomial and the temperature bands fit it), each width
+/// starting every third of itself and once more ending at the top level.
+fn temp_window_edges(lo: f64, hi: f64) -> Vec<(f64, f64)> {
+    let level = |k: usize| lo + (hi - lo) * (k + 1) as f64 / (TEMP_LEVELS + 1) as f64;
+    let mut out = Vec::new();
+    for d in [2, 3, 4, 5, 6, 8, 10, 13] {
+        let last = TEMP_LEVELS - 1 - d;
+        let mut starts: Vec<usize> = (0..=last).step_by((d / 3).max(1)).collect();
+        if starts.last() != Some(&last) {
+            starts.push(last);
+        }
+        out.extend(starts.into_iter().map(|i| (level(i), level(i + d))));
+    }
+    out
+}
+
+/// A window in temperature at `t`: a raised cosine between the edges `a..b`, 1 in the
+/// middle and 0 at and beyond them. A bump at a temperature is smooth (the body's
+/// temperature is not one value, and a sensor lags it), and a boxcar fits a smooth bump with
+/// much of its SNR lost at the edges.
+fn raised_cosine(t: f64, (a, b): (f64, f64)) -> f64 {
+    if (a..b).contains(&t) {
+        0.5 - 0.5 * (std::f64::consts::TAU * (t - a) / (b - a)).cos()
+    } else {
+        0.0
+    }
+}
+
+/// The windows in temperature of `prep`'s record ([`temp_window_edges`]): their edges (°C)
+/// and block columns, each the block mean of the per-sample window (a block of a 3 °C/min
+/// ramp spans 5 °C, which its mean temperature alone would put at one value). A window the
+/// record spends less than [`WINDOW_MIN_BLOCKS`] blocks inside is left out, for the same
+/// reason as a narrow window in time: a few blocks are fitted by a spike.
+pub(crate) fn temp_windows(prep: &Prepared) -> Vec<((f64, f64), Vec<f64>)> {
+    let (lo, hi) = prep
+        .temp_b
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), t| {
+            (a.min(*t), b.max(*t))
+        });
+    if hi <= lo {
+        return Vec::new();
+    }
+    temp_window_edges(lo, hi)
+        .into_iter()
+        .filter(|(a, b)| {
+            prep.temp_b.iter().filter(|t| (*a..*b).contains(*t)).count() >= WINDOW_MIN_BLOCKS
+        })
+        .map(|w| {
+            let per_sample: Vec<f64> = prep
+                .drive
+                .temp_c
+                .iter()
+                .map(|t| raised_cosine(*t, w))
+                .collect();
+            (w, prep.blocks(&per_sample))
+        })
+        .collect()
+}
+
 /// The generic structure test's alternatives: shapes with no physics in them, each fitted
 /// beside the model, the test's statistic the best of their ΔBIC. The piecewise basis alone
 /// spreads a single step or a term even in dT/dt over 22 parameters and loses it; each such
@@ -282,6 +358,10 @@ impl Generic {
                 prep.blocks(&r.iter().map(|v| (v / scale).abs()).collect::<Vec<f64>>()),
                 prep.blocks(&r.iter().map(|v| (v / scale).powi(2)).collect::<Vec<f64>>()),
             ]);
+        }
+        for ((a, b), col) in temp_windows(prep) {
+            shapes.push(Shape::TempWindow(a, b));
+            cols.push(vec![col]);
         }
         let windows = window_pairs(&steps, nb);
         shapes.extend(
@@ -475,6 +555,11 @@ impl Scan {
                 t_end_s: prep.t_b[b.min(prep.t_b.len() - 1)] - prep.full_drive.t_s[0],
                 height_dph: c.first().copied().unwrap_or(0.0),
             },
+            Shape::TempWindow(lo_c, hi_c) => Unexplained::TempWindow {
+                lo_c,
+                hi_c,
+                height_dph: c.first().copied().unwrap_or(0.0),
+            },
             Shape::Piecewise => Unexplained::Piecewise,
         })
     }
@@ -483,6 +568,45 @@ impl Scan {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every window in temperature lies inside the range, from a twentieth to a third of it
+    /// wide; a Gaussian bump of 1σ from 2 % to 6 % of the range, centred anywhere in it at
+    /// least 2σ and a tenth of the range from either end, is matched by some window at ≥ 90 %
+    /// of its own fit's SNR (the correlation of the two over temperatures visited evenly).
+    #[test]
+    fn temperature_windows_match_every_smooth_bump_inside_the_range() {
+        let (lo, hi) = (-20.0, 60.0);
+        let range = hi - lo;
+        let edges = temp_window_edges(lo, hi);
+        for &(a, b) in &edges {
+            assert!(lo < a && b < hi, "{a}..{b}");
+            let w = (b - a) / range;
+            assert!((0.049..0.34).contains(&w), "{a}..{b}: {w}");
+        }
+        let grid: Vec<f64> = (0..4000).map(|k| lo + range * k as f64 / 3999.0).collect();
+        let corr = |x: &[f64], y: &[f64]| {
+            let d = |u: &[f64], v: &[f64]| u.iter().zip(v).map(|(p, q)| p * q).sum::<f64>();
+            d(x, y) / (d(x, x) * d(y, y)).sqrt()
+        };
+        for sigma in [0.02_f64, 0.03, 0.04, 0.05, 0.06] {
+            let margin = (2.0 * sigma).max(0.1);
+            for c in 0..=40 {
+                let centre = lo + range * (margin + (1.0 - 2.0 * margin) * c as f64 / 40.0);
+                let bump: Vec<f64> = grid
+                    .iter()
+                    .map(|t| (-0.5 * ((t - centre) / (sigma * range)).powi(2)).exp())
+                    .collect();
+                let best = edges
+                    .iter()
+                    .map(|&w| {
+                        let win: Vec<f64> = grid.iter().map(|t| raised_cosine(*t, w)).collect();
+                        corr(&bump, &win)
+                    })
+                    .fold(0.0, f64::max);
+                assert!(best >= 0.9, "σ {sigma}, centre {centre}: {best:.3}");
+            }
+        }
+    }
 
     /// Every window lies between two of the generic test's step times, none narrower than
     /// the spike guard or wider than a quarter of the record; a boxcar transient between the

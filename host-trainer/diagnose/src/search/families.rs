@@ -8,12 +8,13 @@ use std::collections::BTreeMap;
 
 use rlg_physics::Term;
 
+use super::bump::{bump_instead, BumpScan};
 use super::cache::ColumnCache;
 use super::line::{line_ratio, LINE_RATIO};
 use super::noise_model::FittedNoise;
 use super::significance::Significance;
 use super::slow::{slow_time_only, SlowDrift, SLOW_PERIOD_OF_RECORD};
-use super::step::{step_instead, step_times, Step, StepScan, STEP_TIMES};
+use super::step::{step_instead, step_times, Against, Step, StepScan, STEP_TIMES};
 use crate::baseline::Baseline;
 use crate::candidates::{node_lag, Family, WARMUP_TAU_MAX_S};
 use crate::linalg::{added_fit, Basis};
@@ -28,7 +29,7 @@ use crate::score::{
     cycle_folds, cycle_rss, delta_bic, heldout_metrics, nonlinear_of, warmup_heldout_gain, HeldOut,
 };
 use crate::variance::VarianceTest;
-use crate::{CandidateScore, DiagnoseError, Figures, Options, StepEvidence};
+use crate::{BumpEvidence, CandidateScore, DiagnoseError, Figures, Options, StepEvidence};
 use rlg_simulate::noise::NoiseParams;
 
 /// The best point of each family (its index among the scan's points), most significant
@@ -177,6 +178,9 @@ pub(super) struct Judged {
     pub(super) finding: Option<Fitted>,
     /// A single step preferred to a slow function of time (no finding is made after it).
     pub(super) step: Option<StepEvidence>,
+    /// A bump at one temperature preferred to a family stationary in temperature (no
+    /// finding is made after it).
+    pub(super) bump: Option<BumpEvidence>,
     /// Significant families with a held-out gain that are not separable from the record's
     /// slow noise (the noise model failed its check, and they have no cycle-by-cycle
     /// evidence).
@@ -191,7 +195,7 @@ pub(super) struct Judged {
     pub(super) counted: bool,
     /// The smallest α at which a family would make the verdict other than `consistent`.
     pub(super) p_counted: f64,
-    /// Notes of the steps preferred, in order.
+    /// Notes of the steps and bumps preferred, in order.
     pub(super) notes: Vec<String>,
 }
 
@@ -202,6 +206,8 @@ struct OncePerPass {
     base_cycle_rss: Option<f64>,
     /// The whitened step columns (`None` inside: the record has no room for a step).
     steps: Option<Option<StepScan>>,
+    /// The whitened windows in temperature (`None` inside: the record has none).
+    bumps: Option<Option<BumpScan>>,
     /// White + B + rate random walk by REML on the baseline (`None` inside: REML puts no
     /// rate random walk in).
     slow_noise: Option<Option<NoiseParams>>,
@@ -214,6 +220,7 @@ impl Judge<'_> {
             scores: Vec::new(),
             finding: None,
             step: None,
+            bump: None,
             untestable: Vec::new(),
             unattributable: Vec::new(),
             slow_drift: Vec::new(),
@@ -419,21 +426,28 @@ impl Judge<'_> {
             && fit.gain > 0.0
             && recurs
             && (out.finding.is_none() || replaces)
-            && out.step.is_none();
+            && out.step.is_none()
+            && out.bump.is_none();
         // A drift or a slow period in time alone competes with the time-only shape outside
         // the library that real records show most: a step (a mode jump, a power or readout
         // event). Where one step fits better, the structure is not attributed, and the
         // families after this one fit worse than the step too.
+        let against = Against {
+            scanned: self.scanned,
+            gyro: &self.noise.gyro,
+            white_level: self.noise.white_level.as_deref(),
+            prep,
+            opts: self.opts,
+        };
         let step_pref = if candidate {
-            step_instead(
-                self.scanned,
-                i,
-                &self.noise.gyro,
-                self.noise.white_level.as_deref(),
-                prep,
-                self.opts,
-                &mut once.steps,
-            )
+            step_instead(&against, i, &mut once.steps)
+        } else {
+            None
+        };
+        // A ripple or a step in temperature competes in the same way with a bump at one
+        // temperature, which each of them takes otherwise.
+        let bump_pref = if candidate {
+            bump_instead(&against, i, &mut once.bumps)
         } else {
             None
         };
@@ -469,7 +483,11 @@ impl Judge<'_> {
         if separable {
             out.p_counted = out.p_counted.min(self.sig.candidate_p(f, dbic, p_slow));
         }
-        if separable && candidate {
+        if let (true, true, Some(b)) = (separable, candidate, bump_pref) {
+            let (note, evidence) = b.evidence(f, dbic);
+            out.notes.push(note);
+            out.bump = Some(evidence);
+        } else if separable && candidate {
             match (step_pref, out.finding.take()) {
                 (Some(_), Some(decay)) => out.finding = Some(decay),
                 (Some(st), None) => {

@@ -17,6 +17,7 @@
 //! A later pass (after a finding, with the term added to the model) runs the same pipeline
 //! on what is left.
 
+mod bump;
 mod cache;
 mod families;
 mod grid;
@@ -166,6 +167,7 @@ pub(crate) fn run(
             structure_p_value: structure.p_value,
             structure_slow_drift: structure.note.is_some(),
             step: judged.step,
+            bump: judged.bump,
             rate_ramp: noise.ramp.clone(),
             unexplained: shape,
             candidates: judged.scores,

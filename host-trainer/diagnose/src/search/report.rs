@@ -152,7 +152,7 @@ pub(super) fn structure_test(q: &StructureQuestion<'_>, opts: &Options) -> Struc
         .map(|(p1, q)| {
             format!(
                 "the generic structure test (time chunks, temperature and dT/dt bands, steps, \
-                 windows in time) is significant under white noise and bias instability (p = \
+                 windows in time and temperature) is significant under white noise and bias instability (p = \
                  {p1:.3}) but not under the same record's noise refitted with rate random walk \
                  (p = {q:.3}): slow drift, not separable from the record's own slow noise in a \
                  record this long"

@@ -41,23 +41,18 @@ pub(crate) fn step_times(nb: usize, most: usize) -> Vec<usize> {
     (edge..nb - edge).step_by(stride).collect()
 }
 
-/// Whitened step columns at every tried time, orthogonal to the baseline.
-pub(super) struct StepScan {
-    blocks: Vec<usize>,
+/// Whitened single columns of one shape outside the library at each of its placements (a
+/// step at each tried time, a bump between each pair of temperature levels), orthogonal to
+/// the baseline, and the parameters a placement is charged.
+pub(super) struct Placements {
     cols: Vec<Vec<f64>>,
     norms: Vec<f64>,
+    n_params: usize,
 }
 
-impl StepScan {
-    fn new(ar: &Whitener, s: &Scan, nb: usize) -> Option<Self> {
-        let blocks = step_times(nb, STEP_TIMES);
-        if blocks.is_empty() {
-            return None;
-        }
-        let raw: Vec<Vec<f64>> = blocks
-            .iter()
-            .map(|&k| (0..nb).map(|b| f64::from(u8::from(b >= k))).collect())
-            .collect();
+impl Placements {
+    /// The block columns `raw` whitened by `ar` and made orthogonal to `s`'s baseline.
+    pub(super) fn new(ar: &Whitener, s: &Scan, raw: &[Vec<f64>], n_params: usize) -> Self {
         let refs: Vec<&[f64]> = raw.iter().map(Vec::as_slice).collect();
         let cols: Vec<Vec<f64>> = ar
             .whiten_many(&refs)
@@ -68,76 +63,76 @@ impl StepScan {
             })
             .collect();
         let norms = cols.iter().map(|c| dot(c, c)).collect();
-        Some(Self {
-            blocks,
+        Self {
             cols,
             norms,
-        })
+            n_params,
+        }
     }
 
-    /// The best step for the whitened residual `e` (orthogonal to the baseline) whose sum of
-    /// squares is `rss0`.
-    fn best(&self, e: &[f64], n: usize, rss0: f64) -> Step {
-        let mut best = Step {
-            block: 0,
-            height_dph: 0.0,
-            delta_bic: f64::INFINITY,
-            p_family: f64::NAN,
-            p_step: f64::NAN,
-        };
-        for ((c, g), &k) in self.cols.iter().zip(&self.norms).zip(&self.blocks) {
+    /// The best placement for the whitened residual `e` (orthogonal to the baseline) whose
+    /// sum of squares is `rss0`: its index, height and ΔBIC.
+    fn best(&self, e: &[f64], n: usize, rss0: f64) -> Option<(usize, f64, f64)> {
+        let mut best: Option<(usize, f64, f64)> = None;
+        for (k, (c, g)) in self.cols.iter().zip(&self.norms).enumerate() {
             if *g <= 0.0 {
                 continue;
             }
             let b = dot(c, e);
-            let d = delta_bic(n, rss0, b * b / g, 2);
-            if d < best.delta_bic {
-                best = Step {
-                    block: k,
-                    height_dph: b / g,
-                    delta_bic: d,
-                    ..best
-                };
+            let d = delta_bic(n, rss0, b * b / g, self.n_params);
+            if best.is_none_or(|(_, _, bd)| d < bd) {
+                best = Some((k, b / g, d));
             }
         }
         best
     }
 }
 
-/// `Some(step)` when the family of the scan's point `i` is aging or a periodic term and the
-/// record is better explained by a single step than by that family `f`. The statistic is the
-/// step's best ΔBIC less `f`'s; each of the two explanations gives it a null by a parametric
-/// bootstrap of its fitted effect plus the fitted noise `gyro` (its white level in time
-/// `white_level`, where there is one; on each replicate the best
-/// step and the best point of `f`'s grid are refitted), and the step is preferred when the
-/// record's statistic is less probable under `f` (share of `f`'s replicates at least as
-/// favourable to the step) than under the step (share of the step's replicates at least as
-/// favourable to `f`). Unlike the lower ΔBIC alone, this counts the search over the step's
-/// time; like it, it can take a real aging whose best step fits slightly better (the two
-/// shares are then close). A one-sided test of `f` at α is not enough: it keeps clear steps
-/// as aging. Warm-up is not put to it: an early step is what
-/// its decay from power-on looks like, and the step would take real warm-ups. The step
-/// columns are made once per pass, in `cached`.
-pub(super) fn step_instead(
-    scanned: &Scanned<'_>,
-    i: usize,
-    gyro: &NoiseParams,
-    white_level: Option<&[f64]>,
-    prep: &Prepared,
-    opts: &Options,
-    cached: &mut Option<Option<StepScan>>,
-) -> Option<Step> {
-    let (ar, s, points) = (scanned.whitener, scanned.scan, scanned.points);
+/// What a shape outside the library is put against a family with: the pass's scan, its
+/// fitted noise (and white level in time, where there is one), the record and the options.
+pub(super) struct Against<'a> {
+    pub(super) scanned: &'a Scanned<'a>,
+    pub(super) gyro: &'a NoiseParams,
+    pub(super) white_level: Option<&'a [f64]>,
+    pub(super) prep: &'a Prepared,
+    pub(super) opts: &'a Options,
+}
+
+/// A shape outside the library preferred to a family by [`instead`].
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Preferred {
+    /// The placement's index.
+    pub(super) index: usize,
+    /// Its height, °/h.
+    pub(super) height_dph: f64,
+    /// Its ΔBIC in the scan's whitened metric.
+    pub(super) delta_bic: f64,
+    /// Share of the family's replicates in which the shape beats it by as much as on the
+    /// record.
+    pub(super) p_family: f64,
+    /// Share of the shape's replicates in which the family comes as close as on the record.
+    pub(super) p_shape: f64,
+}
+
+/// `Some` when the record is better explained by the best placement of `pl` than by the
+/// family of the scan's point `i`. The statistic is the shape's best ΔBIC less the
+/// family's; each of the two explanations gives it a null by a parametric bootstrap of its
+/// fitted effect plus the fitted noise of `on` (its white level in time, where there is
+/// one; on each replicate the best placement and the best point of the family's grid are
+/// refitted), and the shape is preferred when the record's statistic is less
+/// probable under the family (share of its replicates at least as favourable to the shape)
+/// than under the shape (share of the shape's replicates at least as favourable to the
+/// family). Unlike the lower ΔBIC alone, this counts the search over the placements; like
+/// it, it can take a real effect of the family whose best placement fits slightly better
+/// (the two shares are then close). A one-sided test of the family at α is not enough: it
+/// keeps clear steps as aging. `salt` picks the replicates' stream.
+pub(super) fn instead(on: &Against<'_>, i: usize, pl: &Placements, salt: u64) -> Option<Preferred> {
+    let (prep, opts) = (on.prep, on.opts);
+    let (ar, s, points) = (on.scanned.whitener, on.scanned.scan, on.scanned.points);
     let f = points[i].family;
-    if !matches!(f, Family::Aging | Family::Periodic) {
-        return None;
-    }
-    let sc = cached
-        .get_or_insert_with(|| StepScan::new(ar, s, prep.nb()))
-        .as_ref()?;
     let yw = s.basis.residual(&ar.whiten(&prep.y_b));
-    let step = sc.best(&yw, s.n, s.rss0);
-    let t_obs = step.delta_bic - s.dbic[i];
+    let (k, height_dph, shape_dbic) = pl.best(&yw, s.n, s.rss0)?;
+    let t_obs = shape_dbic - s.dbic[i];
     if t_obs >= 0.0 {
         return None;
     }
@@ -147,14 +142,14 @@ pub(super) fn step_instead(
     let reps = opts.bootstrap.max(1);
     let sims: Vec<Vec<f64>> = (0..reps)
         .into_par_iter()
-        .map(|k| {
+        .map(|r| {
             simulate_block_means_levelled(
-                gyro,
-                white_level,
+                on.gyro,
+                on.white_level,
                 prep.nb(),
                 prep.block as f64 * prep.dt_s,
-                &mut replicate_rng(opts.seed ^ STEP_SEED, k as u64),
-                (opts.seed ^ STEP_SEED).wrapping_add(k as u64 + 1),
+                &mut replicate_rng(opts.seed ^ salt, r as u64),
+                (opts.seed ^ salt).wrapping_add(r as u64 + 1),
             )
         })
         .collect();
@@ -182,7 +177,7 @@ pub(super) fn step_instead(
                         )
                     })
                     .fold(f64::INFINITY, f64::min);
-                sc.best(&e, s.n, rss0).delta_bic - df
+                pl.best(&e, s.n, rss0).map_or(f64::INFINITY, |b| b.2) - df
             })
             .collect()
     };
@@ -192,13 +187,64 @@ pub(super) fn step_instead(
     let p_family = share(stats(&combine(&s.cperp[i], &s.coef[i], s.n)), &|t| {
         t <= t_obs
     });
-    let k = sc.blocks.iter().position(|&b| b == step.block)?;
-    let step_effect: Vec<f64> = sc.cols[k].iter().map(|c| c * step.height_dph).collect();
-    let p_step = share(stats(&step_effect), &|t| t >= t_obs);
-    (p_family < p_step).then_some(Step {
+    let effect: Vec<f64> = pl.cols[k].iter().map(|c| c * height_dph).collect();
+    let p_shape = share(stats(&effect), &|t| t >= t_obs);
+    (p_family < p_shape).then_some(Preferred {
+        index: k,
+        height_dph,
+        delta_bic: shape_dbic,
         p_family,
-        p_step,
-        ..step
+        p_shape,
+    })
+}
+
+/// Whitened step columns at every tried time, orthogonal to the baseline.
+pub(super) struct StepScan {
+    blocks: Vec<usize>,
+    placements: Placements,
+}
+
+impl StepScan {
+    fn new(ar: &Whitener, s: &Scan, nb: usize) -> Option<Self> {
+        let blocks = step_times(nb, STEP_TIMES);
+        if blocks.is_empty() {
+            return None;
+        }
+        let raw: Vec<Vec<f64>> = blocks
+            .iter()
+            .map(|&k| (0..nb).map(|b| f64::from(u8::from(b >= k))).collect())
+            .collect();
+        Some(Self {
+            placements: Placements::new(ar, s, &raw, 2),
+            blocks,
+        })
+    }
+}
+
+/// `Some(step)` when the family of the scan's point `i` is aging or a periodic term and the
+/// record is better explained by a single step than by that family ([`instead`], the step's
+/// time searched over [`STEP_TIMES`] blocks). Warm-up is not put to it: an early step is
+/// what its decay from power-on looks like, and the step would take real warm-ups. The step
+/// columns are made once per pass, in `cached`.
+pub(super) fn step_instead(
+    on: &Against<'_>,
+    i: usize,
+    cached: &mut Option<Option<StepScan>>,
+) -> Option<Step> {
+    let scanned = on.scanned;
+    if !matches!(scanned.points[i].family, Family::Aging | Family::Periodic) {
+        return None;
+    }
+    let sc = cached
+        .get_or_insert_with(|| StepScan::new(scanned.whitener, scanned.scan, on.prep.nb()))
+        .as_ref()?;
+    let p = instead(on, i, &sc.placements, STEP_SEED)?;
+    Some(Step {
+        block: sc.blocks[p.index],
+        height_dph: p.height_dph,
+        delta_bic: p.delta_bic,
+        p_family: p.p_family,
+        p_step: p.p_shape,
     })
 }
 
