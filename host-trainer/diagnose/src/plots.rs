@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::Diagnosis;
+use super::{Diagnosis, Unexplained};
 use rlg_io::plot::{render_png, Figure, PlotError, Series, Style};
 
 /// |dT/dt| below which a block counts as a hold, °C/s (0.05 °C/min).
@@ -127,6 +127,26 @@ fn residual_temperature(d: &Diagnosis) -> Figure {
             temp.series
                 .push(Series::new(label, s.temp_c.clone(), y, Style::Points));
         }
+    }
+    // A bump at one temperature is a shape of temperature: drawn here, where it is one
+    // curve, and not only against time, where it recurs at every pass through it.
+    if matches!(d.evidence.unexplained, Some(Unexplained::TempWindow { .. }))
+        && s.unexplained_dph.len() == s.temp_c.len()
+    {
+        let mut by_temp: Vec<(f64, f64)> = s
+            .temp_c
+            .iter()
+            .copied()
+            .zip(s.unexplained_dph.iter().copied())
+            .collect();
+        by_temp.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let (t, u): (Vec<f64>, Vec<f64>) = by_temp.into_iter().unzip();
+        temp.series.push(Series::new(
+            "what no library term explains (the generic test's best shape)",
+            t,
+            u,
+            Style::Line,
+        ));
     }
     temp
 }

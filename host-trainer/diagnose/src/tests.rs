@@ -508,6 +508,21 @@ fn bump_at_one_temperature_is_unexplained_and_located() {
     );
     assert!(hi_c - lo_c < 8.0 * 3.0, "{lo_c}..{hi_c} °C");
     assert!(height > 0.002 && height < 0.012, "{height}");
+    // Where the generic test's shape is the bump, the figure against temperature draws it.
+    if matches!(d.evidence.unexplained, Some(Unexplained::TempWindow { .. })) {
+        let figures = plots::figures(&d);
+        let (_, temp) = figures
+            .iter()
+            .find(|(name, _)| *name == "residual_temperature.png")
+            .expect("the figure against temperature");
+        assert!(
+            temp.series
+                .iter()
+                .any(|s| s.label.starts_with("what no library term explains")),
+            "{:?}",
+            temp.series.iter().map(|s| &s.label).collect::<Vec<_>>()
+        );
+    }
 }
 
 /// A drift from power-on that keeps growing as the logarithm of time (0.03 °/h per e-fold of
