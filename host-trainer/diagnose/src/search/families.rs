@@ -22,7 +22,7 @@ use crate::noise::allan_check::allan_check;
 use crate::noise::reml::reml_noise;
 use crate::noise::whiten::Whitener;
 use crate::prepare::Prepared;
-use crate::ramp::{p_under_rrw, step_p_under_rrw, Draws};
+use crate::ramp::{best_p_under_rrw, p_under_rrw, step_p_under_rrw, Draws};
 use crate::refine::refine;
 use crate::scan::{Scan, Scanned};
 use crate::score::{
@@ -565,8 +565,9 @@ impl Judge<'_> {
     }
 
     /// The p-value of point `i` of `f` (or of the single step preferred to it) under the
-    /// record's noise refitted with rate random walk; `None` where REML puts no rate random
-    /// walk in.
+    /// record's noise refitted with rate random walk, a non-linear parameter (or the step's
+    /// time) chosen on every replicate as on the record; `None` where REML puts no rate
+    /// random walk in.
     fn p_under_slow_noise(
         &self,
         f: Family,
@@ -596,11 +597,27 @@ impl Judge<'_> {
                 &draws,
             ),
             None => {
+                let cols_of = |nl: &[f64]| {
+                    self.cache
+                        .get_or_build(f, nl, || self.base.candidate_blocks(f, nl))
+                };
                 let nl = &self.scanned.points[i].nl;
-                let cols = self
-                    .cache
-                    .get_or_build(f, nl, || self.base.candidate_blocks(f, nl))?;
-                p_under_rrw(&record, &cols, g1, &draws)
+                let cols = cols_of(nl)?;
+                if nl.is_empty() {
+                    p_under_rrw(&record, &cols, g1, &draws)
+                } else {
+                    // The parameter (a warm-up's τ, a slow period) was chosen on the record:
+                    // it is chosen on every replicate too, among the family's slow points.
+                    let record_s = self.base.prep.nb() as f64 * self.base.block_s();
+                    let shapes = self
+                        .scanned
+                        .points
+                        .iter()
+                        .filter(|p| p.family == f && slow_time_only(f, &p.nl, record_s))
+                        .map(|p| cols_of(&p.nl).map(|c| c.to_vec()))
+                        .collect::<Result<Vec<_>, _>>()?;
+                    best_p_under_rrw(&record, g1, &cols, &shapes, &draws)
+                }
             }
         })
     }
