@@ -354,8 +354,8 @@ pub(crate) fn step_p_under_rrw(
 /// [`p_under_rrw`] with the best of `shapes` (each one or more block columns) taken on the
 /// record and on every replicate of `rrw` alike, white + B fitted once beside `at`, the
 /// record's best shape. With the shape fixed at the record's best on the replicates, the
-/// choice went uncharged: a decay whose τ was picked out of 40 beat rate random walk at
-/// p 0.002 on records whose drift, a straight line, did not (p 0.12).
+/// choice goes uncharged, and a family with a parameter to choose beats the slow noise
+/// more easily than a straight line with none.
 pub(crate) fn best_p_under_rrw(
     rec: &BlockRecord<'_>,
     rrw: &NoiseParams,
