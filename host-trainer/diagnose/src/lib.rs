@@ -501,11 +501,14 @@ pub struct CandidateScore {
     /// Leave-one-cycle-out gain, (°/h)²: the reduction of the held-out sum of squares of the
     /// 100 s means when each temperature cycle is predicted from the others. Evaluated for
     /// significant families driven by the temperature history on records of two or more
-    /// cycles (else None); such a finding needs it positive.
+    /// cycles (else None); such a finding needs it positive where the noise model fails its
+    /// Allan check, and where it passes, with it not positive, must beat the record's slow
+    /// noise (`p_value_rrw`).
     #[serde(default)]
     pub cycle_gain: Option<f64>,
     /// For a significant slow function of time alone (aging, warm-up, a period of an eighth
-    /// of the record or more) where white + B passed the Allan check: its p-value under the
+    /// of the record or more), or a family of the temperature history whose `cycle_gain` is
+    /// not positive, where white + B passed the Allan check: its p-value under the
     /// record's noise refitted with rate random walk (likelihood ratio against it, `ramp.rs`;
     /// for the single step preferred to it, that step's). None where not run, or where
     /// REML puts no rate random walk in.

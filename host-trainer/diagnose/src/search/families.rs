@@ -454,10 +454,15 @@ impl Judge<'_> {
         // A slow function of time alone (or the step preferred to it) must also beat the
         // record's own slow noise (see `slow_time_only`), even where white + B passes the
         // Allan check.
+        // So must a thermal effect that does not recur cycle by cycle: fitted on the other
+        // cycles it predicts none better, which is what slow noise a thermal shape absorbs
+        // looks like (a loop as wide as the range over one or two cycles is a drift in
+        // time); the check's shapes are then the family's scanned points.
+        let not_recurring = f.is_thermal() && fit.cycle_gain.is_some_and(|g| g <= 0.0);
         let slow_check = separable
             && trusted
             && self.noise.without_slow_noise()
-            && slow_time_only(f, &self.scanned.points[i].nl, record_s);
+            && (not_recurring || slow_time_only(f, &self.scanned.points[i].nl, record_s));
         let p_slow = if slow_check {
             self.p_under_slow_noise(f, i, step_pref.as_ref(), once)?
         } else {
@@ -606,14 +611,17 @@ impl Judge<'_> {
                 if nl.is_empty() {
                     p_under_rrw(&record, &cols, g1, &draws)
                 } else {
-                    // The parameter (a warm-up's τ, a slow period) was chosen on the record:
-                    // it is chosen on every replicate too, among the family's slow points.
+                    // The parameter (a warm-up's τ, a slow period, a thermal shape) was
+                    // chosen on the record: it is chosen on every replicate too, among the
+                    // family's slow points (a thermal family's every point).
                     let record_s = self.base.prep.nb() as f64 * self.base.block_s();
                     let shapes = self
                         .scanned
                         .points
                         .iter()
-                        .filter(|p| p.family == f && slow_time_only(f, &p.nl, record_s))
+                        .filter(|p| {
+                            p.family == f && (f.is_thermal() || slow_time_only(f, &p.nl, record_s))
+                        })
                         .map(|p| cols_of(&p.nl).map(|c| c.to_vec()))
                         .collect::<Result<Vec<_>, _>>()?;
                     best_p_under_rrw(&record, g1, &cols, &shapes, &draws)

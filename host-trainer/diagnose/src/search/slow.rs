@@ -1,8 +1,9 @@
 //! Slow functions of time against the record's own slow noise: over one record a rate
 //! random walk or a 1/f-like wander of correlation times of days is a drift, and the Allan
 //! check, on the few independent long-τ clusters a record holds, does not reject white + B
-//! for it. A slow time-only finding, and the generic structure test, must therefore also be
-//! significant under the record's noise refitted with rate random walk.
+//! for it. A slow time-only finding, a thermal one that does not recur cycle by cycle, and
+//! the generic structure test must therefore also be significant under the record's noise
+//! refitted with rate random walk.
 
 use crate::bootstrap::bootstrap;
 use crate::candidates::Family;
