@@ -648,14 +648,11 @@ fn clean_results_of_both_sets_pool() {
     assert!(md.contains("| 1 % | 0 % (0/4)"), "{md}");
 }
 
-/// A clean recording (3 °C/min ramps, angle quantisation, rate random walk and 1/f-like
-/// bias) whose slow drift fills the generic test's time chunks: significant under white
-/// noise and bias instability, not under the record's noise refitted with rate random walk.
-/// It is `consistent`, and the evidence says why.
-#[test]
-fn slow_drift_is_not_structure_under_rate_random_walk() {
+/// Clean case `id` of `seed` (its conditions must include a rate random walk) diagnosed
+/// with the defaults, asserted `consistent`.
+fn clean_case_with_rate_random_walk_is_consistent(id: usize, seed: u64) -> rlg_diagnose::Diagnosis {
     let model = PhysicsModel::paper();
-    let case = build_case(167, Kind::Clean, 3, &model).expect("case");
+    let case = build_case(id, Kind::Clean, seed, &model).expect("case");
     assert!(
         case.conditions
             .tags()
@@ -672,6 +669,16 @@ fn slow_drift_is_not_structure_under_rate_random_walk() {
         "{:#?}",
         d.evidence
     );
+    d
+}
+
+/// A clean recording (3 °C/min ramps, angle quantisation, rate random walk and 1/f-like
+/// bias) whose slow drift fills the generic test's time chunks: significant under white
+/// noise and bias instability, not under the record's noise refitted with rate random walk.
+/// It is `consistent`, and the evidence says why.
+#[test]
+fn slow_drift_is_not_structure_under_rate_random_walk() {
+    let d = clean_case_with_rate_random_walk_is_consistent(167, 3);
     assert!(
         d.evidence.structure_p_value > 0.05,
         "{}",
@@ -1226,24 +1233,8 @@ fn a_period_of_the_chambers_own_hunting_is_not_a_periodic() {
 /// to be slow drift.
 #[test]
 fn a_loop_that_does_not_recur_must_beat_the_records_slow_noise() {
-    let model = PhysicsModel::paper();
-    let case = build_case(201, Kind::Clean, 1, &model).expect("case");
-    assert!(
-        case.conditions
-            .tags()
-            .iter()
-            .any(|t| t == "rate random walk"),
-        "{}",
-        case.describe()
-    );
-    let opts = rlg_diagnose::Options::default();
-    let d = rlg_diagnose::diagnose(&case.recording, &model, &opts).expect("diagnoses");
-    assert_eq!(
-        d.verdict,
-        rlg_diagnose::Verdict::Consistent,
-        "{:#?}",
-        d.evidence
-    );
+    let d = clean_case_with_rate_random_walk_is_consistent(201, 1);
+    let alpha = rlg_diagnose::Options::default().alpha;
     let loop_ = d
         .evidence
         .candidates
@@ -1252,10 +1243,7 @@ fn a_loop_that_does_not_recur_must_beat_the_records_slow_noise() {
         .expect("hysteresis scored");
     assert!(loop_.delta_bic < loop_.threshold, "{loop_:?}");
     assert!(loop_.cycle_gain.is_some_and(|g| g <= 0.0), "{loop_:?}");
-    assert!(
-        loop_.p_value_rrw.is_some_and(|p| p > opts.alpha),
-        "{loop_:?}"
-    );
+    assert!(loop_.p_value_rrw.is_some_and(|p| p > alpha), "{loop_:?}");
     assert!(
         d.evidence
             .notes
