@@ -509,8 +509,9 @@ pub struct CandidateScore {
     /// For a significant slow function of time alone (aging, warm-up, a period of an eighth
     /// of the record or more), or a family of the temperature history whose `cycle_gain` is
     /// not positive, where white + B passed the Allan check: its p-value under the
-    /// record's noise refitted with rate random walk (likelihood ratio against it, `ramp.rs`;
-    /// for the single step preferred to it, that step's). None where not run, or where
+    /// record's noise refitted with rate random walk (`ramp.rs`: a time-only shape against
+    /// that noise alone, a thermal one beside it; for the single step preferred to it, that
+    /// step's). None where not run, or where
     /// REML puts no rate random walk in.
     #[serde(default)]
     pub p_value_rrw: Option<f64>,

@@ -22,7 +22,7 @@ use crate::noise::allan_check::allan_check;
 use crate::noise::reml::reml_noise;
 use crate::noise::whiten::Whitener;
 use crate::prepare::Prepared;
-use crate::ramp::{best_p_under_rrw, p_under_rrw, step_p_under_rrw, Draws};
+use crate::ramp::{best_p_beside_rrw, best_p_under_rrw, p_under_rrw, step_p_under_rrw, Draws};
 use crate::refine::refine;
 use crate::scan::{Scan, Scanned};
 use crate::score::{
@@ -457,7 +457,8 @@ impl Judge<'_> {
         // So must a thermal effect that does not recur cycle by cycle: fitted on the other
         // cycles it predicts none better, which is what slow noise a thermal shape absorbs
         // looks like (a loop as wide as the range over one or two cycles is a drift in
-        // time); the check's shapes are then the family's scanned points.
+        // time); it is tested beside that noise, not against it, among the family's scanned
+        // points.
         let not_recurring = f.is_thermal() && fit.cycle_gain.is_some_and(|g| g <= 0.0);
         let slow_check = separable
             && trusted
@@ -607,24 +608,31 @@ impl Judge<'_> {
                         .get_or_build(f, nl, || self.base.candidate_blocks(f, nl))
                 };
                 let nl = &self.scanned.points[i].nl;
-                let cols = cols_of(nl)?;
-                if nl.is_empty() {
-                    p_under_rrw(&record, &cols, g1, &draws)
+                if f.is_thermal() {
+                    // Every point of the family, its parameter chosen on each replicate; a
+                    // thermal effect may stand beside slow noise, so the test is nested.
+                    let shapes = self
+                        .scanned
+                        .points
+                        .iter()
+                        .filter(|p| p.family == f)
+                        .map(|p| cols_of(&p.nl).map(|c| c.to_vec()))
+                        .collect::<Result<Vec<_>, _>>()?;
+                    best_p_beside_rrw(&record, g1, &shapes, &draws)
+                } else if nl.is_empty() {
+                    p_under_rrw(&record, &cols_of(nl)?, g1, &draws)
                 } else {
-                    // The parameter (a warm-up's τ, a slow period, a thermal shape) was
-                    // chosen on the record: it is chosen on every replicate too, among the
-                    // family's slow points (a thermal family's every point).
+                    // The parameter (a warm-up's τ, a slow period) was chosen on the record:
+                    // it is chosen on every replicate too, among the family's slow points.
                     let record_s = self.base.prep.nb() as f64 * self.base.block_s();
                     let shapes = self
                         .scanned
                         .points
                         .iter()
-                        .filter(|p| {
-                            p.family == f && (f.is_thermal() || slow_time_only(f, &p.nl, record_s))
-                        })
+                        .filter(|p| p.family == f && slow_time_only(f, &p.nl, record_s))
                         .map(|p| cols_of(&p.nl).map(|c| c.to_vec()))
                         .collect::<Result<Vec<_>, _>>()?;
-                    best_p_under_rrw(&record, g1, &cols, &shapes, &draws)
+                    best_p_under_rrw(&record, g1, &cols_of(nl)?, &shapes, &draws)
                 }
             }
         })
