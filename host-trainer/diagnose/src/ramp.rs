@@ -591,6 +591,35 @@ mod tests {
         Draws { reps: 200, seed }
     }
 
+    /// Block means of `p` plus `effect`, the REML noise refitted with rate random walk
+    /// allowed, and the index of the one of `shapes` (a column each) that fits best beside
+    /// `base` by least squares, as the search would pick it on the record; `None` where REML
+    /// puts no rate random walk in.
+    fn with_slow_noise(
+        p: &NoiseParams,
+        effect: &[f64],
+        seed: u64,
+        base: &[Vec<f64>],
+        shapes: &[Vec<Vec<f64>>],
+    ) -> Option<(Vec<f64>, NoiseParams, usize)> {
+        let mut y = simulate_block_means(p, NB, BLOCK as f64, &mut replicate_rng(seed, 0), seed);
+        y.iter_mut().zip(effect).for_each(|(v, e)| *v += e);
+        let rrw = reml_noise(base, &y, BLOCK, 1.0, true).expect("fits");
+        if rrw.rrw_dph_per_rt_h == 0.0 {
+            return None;
+        }
+        let ols = Basis::new(base);
+        let r = ols.residual(&y);
+        let gain = |c: &Vec<f64>| {
+            let c = ols.residual(c);
+            dot(&c, &r).powi(2) / dot(&c, &c)
+        };
+        let at = (0..shapes.len())
+            .max_by(|&a, &b| gain(&shapes[a][0]).total_cmp(&gain(&shapes[b][0])))
+            .expect("shapes");
+        Some((y, rrw, at))
+    }
+
     /// 25 h of 100 s means of `p`, plus a drift of `per_day` °/h per day; the baseline is an
     /// offset, and the rate random walk model is the REML fit with it allowed.
     fn case(p: &NoiseParams, per_day: f64, seed: u64) -> Option<RampChoice> {
@@ -808,28 +837,13 @@ mod tests {
             .map(|k| vec![decay(300.0 * 100f64.powf(k as f64 / 11.0))])
             .collect();
         let base = vec![vec![1.0; NB]];
-        let ols = Basis::new(&base);
         // (p with τ chosen on every replicate, p with τ held at the record's best)
         let p_of = |p: &NoiseParams, amp: f64, seed: u64| -> (f64, f64) {
-            let mut y =
-                simulate_block_means(p, NB, BLOCK as f64, &mut replicate_rng(seed, 0), seed);
-            y.iter_mut()
-                .zip(decay(4000.0))
-                .for_each(|(v, d)| *v += amp * d);
-            let rrw = reml_noise(&base, &y, BLOCK, 1.0, true).expect("fits");
-            if rrw.rrw_dph_per_rt_h == 0.0 {
+            let effect: Vec<f64> = decay(4000.0).iter().map(|d| amp * d).collect();
+            let Some((y, rrw, k)) = with_slow_noise(p, &effect, seed, &base, &shapes) else {
                 return (1.0, 1.0);
-            }
-            let r = ols.residual(&y);
-            let gain = |c: &Vec<f64>| {
-                let c = ols.residual(c);
-                dot(&c, &r).powi(2) / dot(&c, &c)
             };
-            let at = shapes
-                .iter()
-                .max_by(|a, b| gain(&a[0]).total_cmp(&gain(&b[0])))
-                .expect("shapes");
-            let rec = record(&base, &y);
+            let (rec, at) = (record(&base, &y), &shapes[k]);
             let chosen = best_p_under_rrw(&rec, &rrw, at, &shapes, &draws(seed)).expect("runs");
             let held = p_under_rrw(&rec, at, &rrw, &draws(seed)).expect("runs");
             (chosen, held)
@@ -878,29 +892,17 @@ mod tests {
             .map(|k| vec![sine(std::f64::consts::PI * k as f64 / 8.0)])
             .collect();
         let base = vec![vec![1.0; NB]];
-        let ols = Basis::new(&base);
         // (p beside the rate random walk, p against it)
         let p_of = |p: &NoiseParams, per_day: f64, amp: f64, seed: u64| -> (f64, f64) {
-            let mut y =
-                simulate_block_means(p, NB, BLOCK as f64, &mut replicate_rng(seed, 0), seed);
-            y.iter_mut()
-                .zip(&t)
-                .zip(sine(0.3))
-                .for_each(|((v, t), s)| *v += per_day * t / 86_400.0 + amp * s);
-            let rrw = reml_noise(&base, &y, BLOCK, 1.0, true).expect("fits");
-            if rrw.rrw_dph_per_rt_h == 0.0 {
-                return (1.0, 1.0);
-            }
-            let r = ols.residual(&y);
-            let gain = |c: &Vec<f64>| {
-                let c = ols.residual(c);
-                dot(&c, &r).powi(2) / dot(&c, &c)
-            };
-            let at = shapes
+            let effect: Vec<f64> = t
                 .iter()
-                .max_by(|a, b| gain(&a[0]).total_cmp(&gain(&b[0])))
-                .expect("shapes");
-            let rec = record(&base, &y);
+                .zip(sine(0.3))
+                .map(|(t, s)| per_day * t / 86_400.0 + amp * s)
+                .collect();
+            let Some((y, rrw, k)) = with_slow_noise(p, &effect, seed, &base, &shapes) else {
+                return (1.0, 1.0);
+            };
+            let (rec, at) = (record(&base, &y), &shapes[k]);
             let beside = best_p_beside_rrw(&rec, &rrw, &shapes, &draws(seed)).expect("runs");
             let against = best_p_under_rrw(&rec, &rrw, at, &shapes, &draws(seed)).expect("runs");
             (beside, against)
