@@ -334,8 +334,12 @@ pub enum Unexplained {
         t_start_s: f64,
         /// Its end, s since the first sample.
         t_end_s: f64,
-        /// Its height in the whitened fit, °/h.
+        /// Its height in the whitened fit (a smooth window's peak), °/h.
         height_dph: f64,
+        /// Whether it rises and falls smoothly over the span (a raised cosine, its peak in
+        /// the middle) rather than at once at its edges.
+        #[serde(default)]
+        smooth: bool,
     },
     /// A bump of the bias while the temperature is between two levels, on heating and
     /// cooling alike (a raised cosine between them).
@@ -378,9 +382,15 @@ impl Unexplained {
                 t_start_s,
                 t_end_s,
                 height_dph,
+                smooth,
             } => format!(
-                "a shift of {height_dph:+.3e} °/h in the bias from {:.2} h to {:.2} h into the \
-                 record and back, a transient in time that no term of the library has",
+                "{} {height_dph:+.3e} °/h in the bias from {:.2} h to {:.2} h into the record \
+                 and back, a transient in time that no term of the library has",
+                if *smooth {
+                    "a smooth bump peaking at"
+                } else {
+                    "a shift of"
+                },
                 t_start_s / 3600.0,
                 t_end_s / 3600.0
             ),

@@ -445,6 +445,7 @@ fn transient_in_time_is_unexplained_and_located() {
         t_start_s,
         t_end_s,
         height_dph,
+        ..
     }) = d.evidence.unexplained
     else {
         panic!("a window in the evidence: {:?}", d.evidence.unexplained);
