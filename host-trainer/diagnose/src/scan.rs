@@ -198,10 +198,8 @@ pub(super) enum Shape {
     Window(usize, usize),
     /// A smooth bump of the bias over the blocks `start..end` (a raised cosine, its peak in
     /// the middle): a transient that rises and relaxes (a disturbance warming one part of
-    /// the block, a readout settling), which a boxcar fits with much of its SNR lost at the
-    /// edges and, where the noise has rate random walk, not at all (that whitening
-    /// differences the record, and a boxcar's difference is two impulses a bump does not
-    /// have).
+    /// the gyro's body, a readout settling), which a boxcar fits with much of its SNR lost at
+    /// its edges.
     SmoothWindow(usize, usize),
     /// A bump of the bias while the temperature is between two levels (°C), on heating and
     /// cooling alike, and none outside them: the baseline's polynomial spreads it over the
