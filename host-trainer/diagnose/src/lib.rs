@@ -303,7 +303,9 @@ pub struct Evidence {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rate_ramp: Option<RampEvidence>,
     /// What the structure no library term explains looks like, where the generic structure
-    /// test made the verdict `unexplained_structure` (after the findings, where there are any).
+    /// test made the verdict `unexplained_structure` (after the findings, where there are any):
+    /// its best alternative in the whitening whose null decided the test (the noise refitted
+    /// beside a step or window in time, where it was).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub unexplained: Option<Unexplained>,
 }

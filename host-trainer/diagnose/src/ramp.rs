@@ -106,6 +106,18 @@ impl Fixed {
     }
 }
 
+/// −2 ln L of the block means `y_b` under the noise `p` with the fixed effects `cols`
+/// profiled by GLS.
+pub(crate) fn neg2_log_likelihood(
+    p: &NoiseParams,
+    cols: &[Vec<f64>],
+    y_b: &[f64],
+    block: usize,
+    dt_s: f64,
+) -> Option<f64> {
+    Fixed::new(p, cols, block, dt_s)?.fit(y_b).map(|(l, _)| l)
+}
+
 /// The outcome when the ramp is preferred.
 #[derive(Clone, Debug)]
 pub(crate) struct RampChoice {

@@ -51,6 +51,8 @@ pub(super) struct Scan {
     pub(super) gen_coef: Vec<f64>,
     /// Its ΔBIC: the generic structure test's statistic.
     pub(super) gen_dbic: f64,
+    /// The best step, the best boxcar window and the best smooth window in time.
+    pub(super) gen_tops: Vec<usize>,
 }
 
 /// A grid scanned: the whitening, the scan's statistics and the points they belong to.
@@ -112,6 +114,14 @@ pub(super) fn scan(
     }
     let gen = generic.whitened(ar, &basis);
     let (gen_best, gen_dbic) = gen.best(&yw, n, rss0);
+    let gen_tops = [
+        |s: &Shape| matches!(s, Shape::Step(_)),
+        |s: &Shape| matches!(s, Shape::Window(..)),
+        |s: &Shape| matches!(s, Shape::SmoothWindow(..)),
+    ]
+    .iter()
+    .filter_map(|f| gen.best_where(&yw, n, rss0, f).0)
+    .collect();
     let gen_coef = gen_best.map_or_else(Vec::new, |i| gen.coefficients(i, &yw));
     let fits = cperp.par_iter().map(|cp| AddedFit::new(cp)).collect();
     Scan {
@@ -127,6 +137,7 @@ pub(super) fn scan(
         gen_best,
         gen_coef,
         gen_dbic,
+        gen_tops,
     }
 }
 
@@ -515,8 +526,22 @@ impl GenericFits {
     /// The best alternative for the whitened residual `e` (orthogonal to the model) whose
     /// sum of squares is `rss0`, and its ΔBIC (+∞ with none).
     pub(super) fn best(&self, e: &[f64], n: usize, rss0: f64) -> (Option<usize>, f64) {
+        self.best_where(e, n, rss0, &|_: &Shape| true)
+    }
+
+    /// [`Self::best`] among the alternatives whose shape passes `keep`.
+    pub(super) fn best_where(
+        &self,
+        e: &[f64],
+        n: usize,
+        rss0: f64,
+        keep: &dyn Fn(&Shape) -> bool,
+    ) -> (Option<usize>, f64) {
         let mut best = (None, f64::INFINITY);
         for (i, ((c, f), k)) in self.cperp.iter().zip(&self.fits).zip(&self.k).enumerate() {
+            if !keep(&self.shapes[i]) {
+                continue;
+            }
             let d = delta_bic(n, rss0, f.drss(c, e), *k);
             if d < best.1 {
                 best = (Some(i), d);
@@ -525,7 +550,7 @@ impl GenericFits {
         let dots = self.step_dots(e);
         let windows = Shape::Window(0, 0).n_params(1);
         for (w, &(a, b, g)) in self.windows.iter().enumerate() {
-            if g <= 0.0 {
+            if g <= 0.0 || !keep(&self.shapes[self.cperp.len() + w]) {
                 continue;
             }
             let x = dots[a] - dots[b];

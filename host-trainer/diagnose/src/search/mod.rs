@@ -128,7 +128,9 @@ pub(crate) fn run(
     let structure = report::structure_test(&question, opts);
     notes.extend(structure.note.iter().cloned());
     let unexplained = structure.significant && judged.finding.is_none();
-    let shape = unexplained.then(|| scan.unexplained(prep)).flatten();
+    // The shape reported is the best alternative of the scan whose null decided the test.
+    let tested = structure.refit.as_ref().unwrap_or(&scan);
+    let shape = unexplained.then(|| tested.unexplained(prep)).flatten();
     notes.extend(shape.as_ref().map(|s| {
         format!(
             "{UNEXPLAINED_LOOKS}{} (generic test p = {:.3}; the located spans say where)",
@@ -174,7 +176,7 @@ pub(crate) fn run(
         },
         series: BlockSeries {
             unexplained_dph: if unexplained {
-                scan.generic_fit(&generic, &base.cols_b)
+                tested.generic_fit(&generic, &base.cols_b)
             } else {
                 Vec::new()
             },

@@ -7,13 +7,16 @@ use std::collections::BTreeMap;
 use super::families::{Fitted, Judge};
 use super::noise_model::FittedNoise;
 use super::significance::Significance;
-use super::slow::{structure_beside, structure_under_rrw, STRUCTURE_RRW_BELOW};
+use super::slow::{structure_beside, structure_under_rrw, Refit, STRUCTURE_RRW_BELOW};
 use crate::baseline::Baseline;
 use crate::candidates::Family;
 use crate::explain::explain;
 use crate::linalg::{combine, Basis};
 use crate::locate::{moving_average, peak_mask, spans};
+use crate::noise::reml::reml_noise;
 use crate::noise::replicates::{replicate_rng, simulate_block_means};
+use crate::noise::whiten::GLS_MAX_BLOCKS;
+use crate::ramp::neg2_log_likelihood;
 use crate::scan::{Generic, Scan};
 use crate::score::{nonlinear_of, ModelColumns};
 use crate::{CandidateScore, DiagnoseError, Finding, Options, Span, Verdict};
@@ -89,17 +92,19 @@ pub(super) struct Structure {
     pub(super) significant: bool,
     /// Set where white + B found structure that the record's slow noise explains.
     pub(super) note: Option<String>,
+    /// The scan under the refitted noise, where the test was asked beside an alternative.
+    pub(super) refit: Option<Scan>,
 }
 
-/// The generic test's own p-value under the pass's noise refitted beside its best
-/// alternative, where that is a step or a window in time (see [`structure_beside`]); `None`
-/// for any other best alternative, a noise model with a rate ramp, a record too long for
-/// the GLS factor, or a pass that does not ask the test again under rate random walk, where
-/// the pass's own null stands. Only beside that second null: refitted beside a step, slow
-/// noise that one record cannot tell from a step is taken out of the replicates, and on the
-/// passes after a right finding (1/f and rate random walk in the record) the step
-/// alternative overturned it at p well under α.
-fn structure_beside_best(q: &StructureQuestion<'_>, opts: &Options) -> Option<f64> {
+/// The generic test asked again under the pass's noise refitted beside its best
+/// alternative, where that is a step or a window in time (see [`structure_beside`] and
+/// [`beside_which`]); `None` for any other best alternative, a noise model with a rate ramp,
+/// a record too long for the GLS factor, or a pass that does not ask the test again under
+/// rate random walk, where the pass's own null stands. Only beside that second null:
+/// refitted beside a step, slow noise that one record cannot tell from a step is taken out
+/// of the replicates, and on the passes after a right finding (1/f and rate random walk in
+/// the record) the step alternative overturned it at p well under α.
+fn structure_beside_best(q: &StructureQuestion<'_>, opts: &Options) -> Option<Refit> {
     if !q.reasked || q.noise.ramp.is_some() {
         return None;
     }
@@ -107,15 +112,62 @@ fn structure_beside_best(q: &StructureQuestion<'_>, opts: &Options) -> Option<f6
         .scan
         .gen_best
         .filter(|&i| q.generic.is_step_or_window(i))?;
+    let with_rrw = q.noise.gyro.rrw_dph_per_rt_h > 0.0;
+    let beside = if with_rrw { beside_which(q)? } else { best };
     structure_beside(
         q.base.prep,
         &q.base.cols_b,
-        q.generic.columns(best, q.base.prep.nb()),
+        q.generic.columns(beside, q.base.prep.nb()),
         q.generic,
         q.noise.white_level.as_deref(),
         opts,
-        q.noise.gyro.rrw_dph_per_rt_h > 0.0,
+        with_rrw,
     )
+}
+
+/// The alternative the noise with rate random walk is refitted beside: of the pass's best
+/// step, best boxcar and best smooth window in time, the one whose refit is likeliest (−2 ln
+/// L of the block means under its own REML noise, the alternative's fixed effects profiled
+/// by GLS, a window charged ln n for its second edge); `None` where no refit keeps rate
+/// random walk, so the pass's null stands.
+///
+/// Under the pass's noise K whitens the record nearly to its differences, and there a step
+/// anywhere near a bump in time fits about as well as the bump: on the independent
+/// generator's records a bump of 1.5 h at D ≥ 6 had a step 8 h away as its best
+/// alternative, the refit beside that step kept the bump as wander, and the record was
+/// `consistent`. Fitted together with the noise, the bump's own window is the likelier.
+fn beside_which(q: &StructureQuestion<'_>) -> Option<usize> {
+    let prep = q.base.prep;
+    let nb = prep.nb();
+    if nb > GLS_MAX_BLOCKS {
+        return None;
+    }
+    let neg2_log_l = |i: usize| {
+        let cols: Vec<Vec<f64>> = q
+            .base
+            .cols_b
+            .iter()
+            .cloned()
+            .chain(q.generic.columns(i, nb))
+            .collect();
+        let g = reml_noise(&cols, &prep.y_b, prep.block, prep.dt_s, true)?;
+        if g.rrw_dph_per_rt_h <= 0.0 {
+            return None;
+        }
+        let l = neg2_log_likelihood(&g, &cols, &prep.y_b, prep.block, prep.dt_s)?;
+        let edge = if q.generic.is_window(i) {
+            (nb as f64).ln()
+        } else {
+            0.0
+        };
+        Some(l + edge)
+    };
+    q.scan
+        .gen_tops
+        .iter()
+        .filter_map(|&i| Some((i, neg2_log_l(i)?)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(i, _)| i)
 }
 
 /// The generic structure test on the verdict's scale, the larger of its p-values under
@@ -124,7 +176,7 @@ fn structure_beside_best(q: &StructureQuestion<'_>, opts: &Options) -> Option<f6
 pub(super) fn structure_test(q: &StructureQuestion<'_>, opts: &Options) -> Structure {
     let sig = q.sig;
     let beside = structure_beside_best(q, opts);
-    let p1 = beside.unwrap_or(sig.structure_alone);
+    let p1 = beside.as_ref().map_or(sig.structure_alone, |r| r.p_value);
     let p_rrw = (q.reasked && q.noise.without_slow_noise() && p1 <= STRUCTURE_RRW_BELOW)
         .then(|| {
             let best = q
@@ -162,6 +214,7 @@ pub(super) fn structure_test(q: &StructureQuestion<'_>, opts: &Options) -> Struc
         p_value,
         significant,
         note,
+        refit: beside.map(|r| r.scan),
     }
 }
 

@@ -11,7 +11,7 @@ use crate::noise::covariance::block_mean_cov;
 use crate::noise::reml::reml_noise;
 use crate::noise::whiten::{GlsWhitener, Whitener, GLS_MAX_BLOCKS};
 use crate::prepare::Prepared;
-use crate::scan::{scan, Generic, Scanned};
+use crate::scan::{scan, Generic, Scan, Scanned};
 use crate::Options;
 use rlg_simulate::noise::NoiseParams;
 
@@ -87,7 +87,16 @@ pub(super) fn structure_under_rrw(
     white_level: Option<&[f64]>,
     opts: &Options,
 ) -> Option<f64> {
-    structure_beside(prep, base_b, best, generic, white_level, opts, true)
+    structure_beside(prep, base_b, best, generic, white_level, opts, true).map(|r| r.p_value)
+}
+
+/// The generic structure test asked again under a refitted noise.
+pub(super) struct Refit {
+    /// Its p-value under its own bootstrap.
+    pub(super) p_value: f64,
+    /// The scan in the refit's whitening: its best alternative is the one that p-value
+    /// tests, so it is the shape reported.
+    pub(super) scan: Scan,
 }
 
 /// The generic structure test's p-value under the record's noise refitted by REML beside
@@ -115,7 +124,7 @@ pub(super) fn structure_beside(
     white_level: Option<&[f64]>,
     opts: &Options,
     with_rrw: bool,
-) -> Option<f64> {
+) -> Option<Refit> {
     if prep.nb() > GLS_MAX_BLOCKS {
         return None;
     }
@@ -137,5 +146,8 @@ pub(super) fn structure_beside(
         points: &[],
     };
     let nulls = bootstrap(&scanned, &g, white_level, None, prep, opts);
-    Some(nulls.structure.p_value(s.gen_dbic))
+    Some(Refit {
+        p_value: nulls.structure.p_value(s.gen_dbic),
+        scan: s,
+    })
 }
