@@ -93,7 +93,7 @@ fn residual_time(d: &Diagnosis, hours: &[f64]) -> Figure {
             .map(|(u, e)| u + e)
             .collect();
         time.series.push(Series::new(
-            "what no library term explains (the generic test's best shape)",
+            "what no library term explains",
             hours.to_vec(),
             over,
             Style::Line,
@@ -142,7 +142,7 @@ fn residual_temperature(d: &Diagnosis) -> Figure {
         by_temp.sort_by(|a, b| a.0.total_cmp(&b.0));
         let (t, u): (Vec<f64>, Vec<f64>) = by_temp.into_iter().unzip();
         temp.series.push(Series::new(
-            "what no library term explains (the generic test's best shape)",
+            "what no library term explains",
             t,
             u,
             Style::Line,
