@@ -191,12 +191,51 @@ pub(super) struct Judged {
     pub(super) unattributable: Vec<Family>,
     /// Slow functions of time significant under white + B but not under rate random walk.
     pub(super) slow_drift: Vec<SlowDrift>,
+    /// Significant families that count but are not named, with why (see [`Unconfirmed`]).
+    unconfirmed: Vec<Unconfirmed>,
     /// Whether a significant family counts towards `unexplained_structure`.
     pub(super) counted: bool,
     /// The smallest α at which a family would make the verdict other than `consistent`.
     pub(super) p_counted: f64,
     /// Notes of the steps and bumps preferred, in order.
     pub(super) notes: Vec<String>,
+}
+
+/// A family significant and separable from the record's noise that is not named: modelling
+/// it lowers no held-out error, or, where the noise model is not trusted, fitted on the
+/// other temperature cycles it predicts them no better. It still makes the verdict
+/// `unexplained_structure`, and without a note the user would see that verdict with no
+/// shape and no reason.
+struct Unconfirmed {
+    family: Family,
+    /// Its p-value on the verdict's scale.
+    p_value: f64,
+    /// Its held-out gain, (°/h)².
+    gain: f64,
+    /// Its cycle-by-cycle gain, (°/h)², where that is what it failed.
+    cycle_gain: Option<f64>,
+}
+
+impl Unconfirmed {
+    /// The evidence's note on it.
+    fn note(&self) -> String {
+        let why = match self.cycle_gain {
+            Some(g) => format!(
+                "fitted on the other temperature cycles it predicts them no better (gain \
+                 {g:.2e} (°/h)²)"
+            ),
+            None => format!(
+                "modelling it lowers no held-out error (gain {:.2e} (°/h)²)",
+                self.gain
+            ),
+        };
+        format!(
+            "{} fits the residual significantly (p = {:.3}) but is not named: {why}; the \
+             structure it fits is counted as unexplained",
+            self.family.name(),
+            self.p_value
+        )
+    }
 }
 
 /// What a family's check computes once per pass, when first needed.
@@ -224,6 +263,7 @@ impl Judge<'_> {
             untestable: Vec::new(),
             unattributable: Vec::new(),
             slow_drift: Vec::new(),
+            unconfirmed: Vec::new(),
             counted: false,
             p_counted: 1.0,
             notes: Vec::new(),
@@ -487,7 +527,16 @@ impl Judge<'_> {
         }
         out.counted |= separable;
         if separable {
-            out.p_counted = out.p_counted.min(self.sig.candidate_p(f, dbic, p_slow));
+            let p = self.sig.candidate_p(f, dbic, p_slow);
+            out.p_counted = out.p_counted.min(p);
+            if fit.gain <= 0.0 || !recurs {
+                out.unconfirmed.push(Unconfirmed {
+                    family: f,
+                    p_value: p,
+                    gain: fit.gain,
+                    cycle_gain: fit.cycle_gain.filter(|_| !recurs),
+                });
+            }
         }
         if let (true, true, Some(b)) = (separable, candidate, bump_pref) {
             let (note, evidence) = b.evidence(f, dbic);
@@ -658,6 +707,41 @@ impl Judged {
             ));
         }
         notes.extend(self.slow_drift.iter().map(SlowDrift::note));
+        notes.extend(self.unconfirmed.iter().map(Unconfirmed::note));
         notes
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The note on a significant family left unnamed gives its p-value and the check it
+    /// failed: the cycle-by-cycle gain where that is what failed, else the held-out gain.
+    #[test]
+    fn an_unnamed_significant_family_says_which_check_it_failed() {
+        let held_out = Unconfirmed {
+            family: Family::Hysteresis,
+            p_value: 0.005,
+            gain: -1.4e-3,
+            cycle_gain: None,
+        }
+        .note();
+        assert!(held_out.starts_with("hysteresis fits"), "{held_out}");
+        assert!(held_out.contains("p = 0.005"), "{held_out}");
+        assert!(
+            held_out.contains("held-out error (gain -1.40e-3"),
+            "{held_out}"
+        );
+        let cycles = Unconfirmed {
+            family: Family::GradientLag,
+            p_value: 0.002,
+            gain: 3.0e-4,
+            cycle_gain: Some(-2.0e-5),
+        }
+        .note();
+        assert!(cycles.contains("other temperature cycles"), "{cycles}");
+        assert!(cycles.contains("-2.00e-5"), "{cycles}");
+        assert!(!cycles.contains("held-out"), "{cycles}");
     }
 }
