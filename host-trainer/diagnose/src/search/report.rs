@@ -7,19 +7,21 @@ use std::collections::BTreeMap;
 use super::families::{Fitted, Judge};
 use super::noise_model::FittedNoise;
 use super::significance::Significance;
-use super::slow::{structure_beside, structure_under_rrw, Refit, STRUCTURE_RRW_BELOW};
+use super::slow::{
+    noise_beside, structure_beside, structure_under, structure_under_rrw, Refit,
+    STRUCTURE_RRW_BELOW,
+};
 use crate::baseline::Baseline;
 use crate::candidates::Family;
 use crate::explain::explain;
 use crate::linalg::{combine, Basis};
 use crate::locate::{moving_average, peak_mask, spans};
-use crate::noise::reml::reml_noise;
 use crate::noise::replicates::{replicate_rng, simulate_block_means};
-use crate::noise::whiten::GLS_MAX_BLOCKS;
 use crate::ramp::neg2_log_likelihood;
 use crate::scan::{Generic, Scan};
 use crate::score::{nonlinear_of, ModelColumns};
 use crate::{CandidateScore, DiagnoseError, Finding, Options, Span, Verdict};
+use rlg_simulate::noise::NoiseParams;
 
 /// Moving average (blocks) and threshold (σ of that average under the noise model) that
 /// mark a located span of the baseline residual.
@@ -112,62 +114,53 @@ fn structure_beside_best(q: &StructureQuestion<'_>, opts: &Options) -> Option<Re
         .scan
         .gen_best
         .filter(|&i| q.generic.is_step_or_window(i))?;
-    let with_rrw = q.noise.gyro.rrw_dph_per_rt_h > 0.0;
-    let beside = if with_rrw { beside_which(q)? } else { best };
+    let (prep, white_level) = (q.base.prep, q.noise.white_level.as_deref());
+    if q.noise.gyro.rrw_dph_per_rt_h > 0.0 {
+        let g = beside_which(q)?;
+        return structure_under(prep, &q.base.cols_b, &g, q.generic, white_level, opts);
+    }
     structure_beside(
-        q.base.prep,
+        prep,
         &q.base.cols_b,
-        q.generic.columns(beside, q.base.prep.nb()),
+        q.generic.columns(best, prep.nb()),
         q.generic,
-        q.noise.white_level.as_deref(),
+        white_level,
         opts,
-        with_rrw,
+        false,
     )
 }
 
-/// The alternative the noise with rate random walk is refitted beside: of the pass's best
-/// step, best boxcar and best smooth window in time, the one whose refit is likeliest (−2 ln
-/// L of the block means under its own REML noise, the alternative's fixed effects profiled
-/// by GLS, a window charged ln n for its second edge); `None` where no refit keeps rate
-/// random walk, so the pass's null stands.
+/// The noise with rate random walk refitted beside the likeliest of the pass's best step,
+/// best boxcar and best smooth window in time (−2 ln L of the block means under each one's
+/// own REML noise, its fixed effects profiled by GLS, a window charged ln n for its second
+/// edge); `None` where no refit keeps rate random walk, so the pass's null stands.
 ///
 /// Under the pass's noise K whitens the record nearly to its differences, and there a step
 /// anywhere near a bump in time fits about as well as the bump: on the independent
 /// generator's records a bump of 1.5 h at D ≥ 6 had a step 8 h away as its best
 /// alternative, the refit beside that step kept the bump as wander, and the record was
 /// `consistent`. Fitted together with the noise, the bump's own window is the likelier.
-fn beside_which(q: &StructureQuestion<'_>) -> Option<usize> {
+fn beside_which(q: &StructureQuestion<'_>) -> Option<NoiseParams> {
     let prep = q.base.prep;
     let nb = prep.nb();
-    if nb > GLS_MAX_BLOCKS {
-        return None;
-    }
-    let neg2_log_l = |i: usize| {
-        let cols: Vec<Vec<f64>> = q
-            .base
-            .cols_b
-            .iter()
-            .cloned()
-            .chain(q.generic.columns(i, nb))
-            .collect();
-        let g = reml_noise(&cols, &prep.y_b, prep.block, prep.dt_s, true)?;
-        if g.rrw_dph_per_rt_h <= 0.0 {
-            return None;
-        }
+    let refit = |i: usize| {
+        let alt = q.generic.columns(i, nb);
+        let g = noise_beside(prep, &q.base.cols_b, alt.clone(), true)?;
+        let cols: Vec<Vec<f64>> = q.base.cols_b.iter().cloned().chain(alt).collect();
         let l = neg2_log_likelihood(&g, &cols, &prep.y_b, prep.block, prep.dt_s)?;
         let edge = if q.generic.is_window(i) {
             (nb as f64).ln()
         } else {
             0.0
         };
-        Some(l + edge)
+        Some((g, l + edge))
     };
     q.scan
         .gen_tops
         .iter()
-        .filter_map(|&i| Some((i, neg2_log_l(i)?)))
+        .filter_map(|&i| refit(i))
         .min_by(|a, b| a.1.total_cmp(&b.1))
-        .map(|(i, _)| i)
+        .map(|(g, _)| g)
 }
 
 /// The generic structure test on the verdict's scale, the larger of its p-values under

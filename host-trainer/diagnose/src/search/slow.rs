@@ -125,16 +125,40 @@ pub(super) fn structure_beside(
     opts: &Options,
     with_rrw: bool,
 ) -> Option<Refit> {
+    let g = noise_beside(prep, base_b, best, with_rrw)?;
+    structure_under(prep, base_b, &g, generic, white_level, opts)
+}
+
+/// The record's noise refitted by REML beside `best`, the columns of one alternative, with
+/// rate random walk allowed where `with_rrw` (`None` where the record is too long for the GLS
+/// factor, or `with_rrw` and REML puts no rate random walk in).
+pub(super) fn noise_beside(
+    prep: &Prepared,
+    base_b: &[Vec<f64>],
+    best: Vec<Vec<f64>>,
+    with_rrw: bool,
+) -> Option<NoiseParams> {
     if prep.nb() > GLS_MAX_BLOCKS {
         return None;
     }
     let beside: Vec<Vec<f64>> = base_b.iter().cloned().chain(best).collect();
     let g = reml_noise(&beside, &prep.y_b, prep.block, prep.dt_s, with_rrw)?;
-    if with_rrw && g.rrw_dph_per_rt_h == 0.0 {
-        return None;
-    }
+    (!with_rrw || g.rrw_dph_per_rt_h > 0.0).then_some(g)
+}
+
+/// The generic structure test's p-value under the noise `g`, on its own GLS whitening and
+/// bootstrap (its replicates' white noise at `white_level` where the record's level changes
+/// in time).
+pub(super) fn structure_under(
+    prep: &Prepared,
+    base_b: &[Vec<f64>],
+    g: &NoiseParams,
+    generic: &Generic,
+    white_level: Option<&[f64]>,
+    opts: &Options,
+) -> Option<Refit> {
     let w = Whitener::Gls(GlsWhitener::from_cov(block_mean_cov(
-        &g,
+        g,
         prep.nb(),
         prep.block,
         prep.dt_s,
@@ -145,7 +169,7 @@ pub(super) fn structure_beside(
         scan: &s,
         points: &[],
     };
-    let nulls = bootstrap(&scanned, &g, white_level, None, prep, opts);
+    let nulls = bootstrap(&scanned, g, white_level, None, prep, opts);
     Some(Refit {
         p_value: nulls.structure.p_value(s.gen_dbic),
         scan: s,
