@@ -441,6 +441,12 @@ fn transient_in_time_is_unexplained_and_located() {
     }
     let (d, note) = diagnosed_unexplained(&rec);
     assert!(note.contains("transient in time"), "{note}");
+    assert_window_holds(&d, centre - t0, width, (0.002, 0.009));
+}
+
+/// The evidence's unexplained shape is a window in time that holds `centre_s` (from the
+/// record's start), is under six `width_s` wide, and is `height` (°/h, low..high) high.
+fn assert_window_holds(d: &Diagnosis, centre_s: f64, width_s: f64, (lo, hi): (f64, f64)) {
     let Some(Unexplained::Window {
         t_start_s,
         t_end_s,
@@ -450,16 +456,15 @@ fn transient_in_time_is_unexplained_and_located() {
     else {
         panic!("a window in the evidence: {:?}", d.evidence.unexplained);
     };
-    let c = centre - t0;
     assert!(
-        t_start_s < c && c < t_end_s,
-        "{t_start_s}..{t_end_s} s; centre {c} s"
+        t_start_s < centre_s && centre_s < t_end_s,
+        "{t_start_s}..{t_end_s} s; centre {centre_s} s"
     );
     assert!(
-        t_end_s - t_start_s < 6.0 * width,
+        t_end_s - t_start_s < 6.0 * width_s,
         "{t_start_s}..{t_end_s} s"
     );
-    assert!(height_dph > 0.002 && height_dph < 0.009, "{height_dph}");
+    assert!(height_dph > lo && height_dph < hi, "{height_dph}");
 }
 
 /// A transient in time (a Gaussian bump of 1 h, 1σ, 0.012 °/h high, three fifths into the
@@ -485,25 +490,7 @@ fn transient_in_time_beside_rate_random_walk_is_unexplained_and_located() {
         d.evidence.noise_fit
     );
     assert!(note.contains("transient in time"), "{note}");
-    let Some(Unexplained::Window {
-        t_start_s,
-        t_end_s,
-        height_dph,
-        ..
-    }) = d.evidence.unexplained
-    else {
-        panic!("a window in the evidence: {:?}", d.evidence.unexplained);
-    };
-    let c = centre - t0;
-    assert!(
-        t_start_s < c && c < t_end_s,
-        "{t_start_s}..{t_end_s} s; centre {c} s"
-    );
-    assert!(
-        t_end_s - t_start_s < 6.0 * width,
-        "{t_start_s}..{t_end_s} s"
-    );
-    assert!(height_dph > 0.004 && height_dph < 0.018, "{height_dph}");
+    assert_window_holds(&d, centre - t0, width, (0.004, 0.018));
 }
 
 /// A bump of the bias at one temperature (a Gaussian of 1σ 3 °C in the recorded
