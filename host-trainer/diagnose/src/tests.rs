@@ -469,10 +469,10 @@ fn assert_window_holds(d: &Diagnosis, centre_s: f64, width_s: f64, (lo, hi): (f6
 
 /// A transient in time (a Gaussian bump of 1 h, 1σ, 0.012 °/h high, three fifths into the
 /// record) beside rate random walk of 1e-3 °/h/√h in the record's noise, so that the pass's
-/// noise model has it. There the pass's best alternative was a step, the noise refitted
-/// beside it kept the transient as wander, and the record was `consistent` (p 0.11 on this
-/// seed); refitted beside the likeliest of the best step and windows, the noise leaves it out:
-/// `unexplained_structure`, and the window reported holds the transient's centre.
+/// noise model has it. Refitted beside the pass's best alternative, a step, the noise keeps
+/// the transient as wander and the record is `consistent`; refitted beside the likeliest of
+/// the best step and windows, the noise leaves it out: `unexplained_structure`, and the
+/// window reported holds the transient's centre.
 #[test]
 fn transient_in_time_beside_rate_random_walk_is_unexplained_and_located() {
     let mut sc = scenario(vec![], 1.0);

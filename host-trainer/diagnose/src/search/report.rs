@@ -136,10 +136,9 @@ fn structure_beside_best(q: &StructureQuestion<'_>, opts: &Options) -> Option<Re
 /// edge); `None` where no refit keeps rate random walk, so the pass's null stands.
 ///
 /// Under the pass's noise K whitens the record nearly to its differences, and there a step
-/// anywhere near a bump in time fits about as well as the bump: on the independent
-/// generator's records a bump of 1.5 h at D ≥ 6 had a step 8 h away as its best
-/// alternative, the refit beside that step kept the bump as wander, and the record was
-/// `consistent`. Fitted together with the noise, the bump's own window is the likelier.
+/// hours away from a bump in time can fit about as well as the bump; refitted beside that
+/// step, the noise keeps the bump as wander. Fitted together with the noise, the bump's own
+/// window is the likelier.
 fn beside_which(q: &StructureQuestion<'_>) -> Option<NoiseParams> {
     let prep = q.base.prep;
     let nb = prep.nb();
