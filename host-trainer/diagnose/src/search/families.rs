@@ -168,6 +168,20 @@ pub(super) struct Fitted {
     /// noise and bias instability, refitted beside the term, describe the residual (the term
     /// is then what the check saw).
     explains_departure: bool,
+    /// Where modelling the term alone lowers no held-out error: another family significant
+    /// on its own beside which it does, each lowering the other's (see
+    /// `Judge::gain_beside`).
+    beside: Option<Beside>,
+}
+
+/// Another family's term beside which a term lowers the held-out error.
+#[derive(Clone, Copy)]
+struct Beside {
+    family: Family,
+    /// Its p-value alone.
+    p_alone: f64,
+    /// The term's held-out gain with the other's term in the model, (°/h)².
+    gain: f64,
 }
 
 /// What a pass concluded from its families' best points.
@@ -238,6 +252,23 @@ impl Unconfirmed {
     }
 }
 
+impl Beside {
+    /// The evidence's note on the finding `f` named for it, `alone` its own gain.
+    fn note(self, f: Family, alone: f64) -> String {
+        format!(
+            "{} lowers no held-out error alone (gain {alone:.2e} (°/h)²) but does beside {} \
+             (significant on its own, p = {:.3}; gain {:.2e} (°/h)², and {} lowers it beside \
+             {} too): the next pass, with it in the model, asks for the other",
+            f.name(),
+            self.family.name(),
+            self.p_alone,
+            self.gain,
+            self.family.name(),
+            f.name()
+        )
+    }
+}
+
 /// What a family's check computes once per pass, when first needed.
 #[derive(Default)]
 struct OncePerPass {
@@ -287,10 +318,14 @@ impl Judge<'_> {
                 p_value_rrw: None,
             };
             if dbic < self.sig.threshold(f) {
-                let fit = match (f, self.var) {
+                let mut fit = match (f, self.var) {
                     (Family::Heteroscedastic, Some(v)) => self.fit_noise_scale(v, i),
                     _ => self.fit_mean(f, i, cycles.as_deref(), &mut once)?,
                 };
+                let open = out.finding.is_none() && out.step.is_none() && out.bump.is_none();
+                if open && fit.gain <= 0.0 {
+                    fit.beside = self.gain_beside(&fit, best)?;
+                }
                 score.heldout_gain = fit.gain;
                 score.cycle_gain = fit.cycle_gain;
                 score.p_value_rrw = self.weigh(fit, &mut out, &mut once)?;
@@ -327,6 +362,7 @@ impl Judge<'_> {
             gain: r0 - r1,
             cycle_gain: None,
             explains_departure: false,
+            beside: None,
         }
     }
 
@@ -376,6 +412,7 @@ impl Judge<'_> {
             gain,
             cycle_gain,
             explains_departure,
+            beside: None,
         })
     }
 
@@ -462,8 +499,9 @@ impl Judge<'_> {
                 .finding
                 .as_ref()
                 .is_some_and(|w| Self::unresolved_decay(&w.term));
+        let gain = fit.beside.map_or(fit.gain, |b| b.gain);
         let candidate = separable
-            && fit.gain > 0.0
+            && gain > 0.0
             && recurs
             && (out.finding.is_none() || replaces)
             && out.step.is_none()
@@ -522,14 +560,14 @@ impl Judge<'_> {
             });
         }
         let separable = separable && beats_slow_noise;
-        if !separable && !unattributable && fit.gain > 0.0 && beats_slow_noise {
+        if !separable && !unattributable && gain > 0.0 && beats_slow_noise {
             out.untestable.push(f);
         }
         out.counted |= separable;
         if separable {
             let p = self.sig.candidate_p(f, dbic, p_slow);
             out.p_counted = out.p_counted.min(p);
-            if fit.gain <= 0.0 || !recurs {
+            if gain <= 0.0 || !recurs {
                 out.unconfirmed.push(Unconfirmed {
                     family: f,
                     p_value: p,
@@ -551,6 +589,9 @@ impl Judge<'_> {
                     out.step = Some(evidence);
                 }
                 (None, decay) => {
+                    if let Some(b) = fit.beside {
+                        out.notes.push(b.note(f, fit.gain));
+                    }
                     if let Some(Term::Warmup { tau_s, .. }) = decay.map(|d| d.term) {
                         out.notes.push(format!(
                             "warmup's decay from power-on came out at the slowest τ a \
@@ -564,6 +605,49 @@ impl Judge<'_> {
             }
         }
         Ok(p_slow)
+    }
+
+    /// For a fit `fit` whose term alone lowers no held-out error: the most significant family
+    /// among `best` (in their order), significant on its own, beside whose term (refined from
+    /// its best point) it does, the other's term lowering the held-out error beside it too.
+    /// *Why a pair:* the held-out check adds one term at a time, and a second effect left
+    /// out of the model (a drift beside a loop) can make the first's prediction of held-out
+    /// chunks worse, not better; the pair is what the record supports, and the next pass,
+    /// with this term in the model, asks for the other. *Why not the pair of largest gain:*
+    /// a slow lag at the end of its grid takes a drift about as well as the drift's own
+    /// family; the record's ranking is the better guide to which effect stands beside. The
+    /// warm-up (whose held-out check has folds of its own) and the noise scale are not
+    /// weighed this way.
+    fn gain_beside(
+        &self,
+        fit: &Fitted,
+        best: &[(Family, usize)],
+    ) -> Result<Option<Beside>, DiagnoseError> {
+        let no_pair = |f: Family| matches!(f, Family::Warmup | Family::Heteroscedastic);
+        if no_pair(fit.family) {
+            return Ok(None);
+        }
+        let (prep, model) = (self.base.prep, self.base.model);
+        for &(g, j) in best {
+            let p_alone = self.sig.alone_p(g, self.scanned.scan.dbic[j]);
+            if g == fit.family || no_pair(g) || p_alone > self.opts.alpha {
+                continue;
+            }
+            let (other, _) = refine(self.base, self.scanned, j)?;
+            let mut with_other = model.clone();
+            with_other.terms.push(other);
+            let rss_other = heldout_metrics(prep, &with_other, None)?.rss_b;
+            let rss_both = heldout_metrics(prep, &with_other, Some(&fit.term))?.rss_b;
+            let (gain, gain_other) = (rss_other - rss_both, fit.heldout.rss_b - rss_both);
+            if gain > 0.0 && gain_other > 0.0 {
+                return Ok(Some(Beside {
+                    family: g,
+                    p_alone,
+                    gain,
+                }));
+            }
+        }
+        Ok(None)
     }
 
     /// Whether `term` is a warm-up whose τ is at the library's slowest warm-up

@@ -1040,6 +1040,47 @@ fn a_second_effect_is_another_mechanism_beside_the_first() {
     assert!(sensor.second.is_none());
 }
 
+/// An aging (−8.2e-3 °/h per day) beside a gradient's lag (D 6.7) under 1/f-like noise with
+/// rate random walk (seed 1, case 91 of the two-effect set): the lag is significant but,
+/// with the drift left out of the model, lowers no held-out error alone, and the record
+/// was `unexplained_structure` with nothing named. Held out beside another family
+/// significant on its own it does, and that family beside it too: the lag is named, with a
+/// note giving both gains, and aging is found on the next pass.
+#[test]
+fn an_effect_masked_by_a_second_is_credited_beside_it() {
+    let model = PhysicsModel::paper();
+    let variant = Variant {
+        second_effect: true,
+        ..Variant::default()
+    };
+    let case = build_case_in(91, Kind::Library(Family::Aging), 1, &model, variant).expect("case");
+    let (term, _) = case.second.as_ref().expect("a second effect");
+    assert_eq!(term.mechanism().name(), "gradient_lag");
+    let d = rlg_diagnose::diagnose(&case.recording, &model, &rlg_diagnose::Options::default())
+        .expect("diagnoses");
+    let mut found: Vec<&str> = d.findings.iter().map(|f| f.mechanism.name()).collect();
+    found.sort_unstable();
+    assert_eq!(found, ["aging", "gradient_lag"], "{:#?}", d.evidence);
+    let alone = d
+        .evidence
+        .candidates
+        .iter()
+        .find(|c| c.mechanism.name() == "gradient_lag");
+    assert!(
+        alone.is_some_and(|c| c.heldout_gain <= 0.0),
+        "{:#?}",
+        d.evidence.candidates
+    );
+    assert!(
+        d.evidence
+            .notes
+            .iter()
+            .any(|n| n.starts_with("gradient_lag lowers no held-out error alone")),
+        "{:#?}",
+        d.evidence.notes
+    );
+}
+
 /// A coarse reading keeps the case's draw and rounds the reading to a 9- to 12-bit sensor's
 /// quantum (the bias is the twin's: the rate moves only through the noise's share of the
 /// changed amplitude, so the hidden term and its family are the twin's); a hidden
