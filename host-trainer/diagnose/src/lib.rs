@@ -576,7 +576,17 @@ pub fn diagnose<'a>(
         let unexplained = next.series.unexplained_dph;
         let shape = next.evidence.unexplained;
         match (next.verdict, next.findings.into_iter().next()) {
-            (Verdict::MissingPhysics, Some(f)) => d.findings.push(f),
+            (Verdict::MissingPhysics, Some(f)) => {
+                let pair = format!("{} {}", f.mechanism.name(), search::ALONE_NO_GAIN);
+                d.evidence.notes.extend(
+                    next.evidence
+                        .notes
+                        .iter()
+                        .filter(|n| n.starts_with(&pair))
+                        .cloned(),
+                );
+                d.findings.push(f);
+            }
             // Each pass is another look at the same record for structure left over: the
             // verdict turns at α over the number of looks (Bonferroni), so the chance that a
             // finding is overturned by noise does not grow with the passes.

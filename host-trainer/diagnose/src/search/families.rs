@@ -15,6 +15,7 @@ use super::noise_model::FittedNoise;
 use super::significance::Significance;
 use super::slow::{slow_time_only, SlowDrift, SLOW_PERIOD_OF_RECORD};
 use super::step::{step_instead, step_times, Against, Step, StepScan, STEP_TIMES};
+use super::ALONE_NO_GAIN;
 use crate::baseline::Baseline;
 use crate::candidates::{node_lag, Family, WARMUP_TAU_MAX_S};
 use crate::linalg::{added_fit, Basis};
@@ -256,7 +257,7 @@ impl Beside {
     /// The evidence's note on the finding `f` named for it, `alone` its own gain.
     fn note(self, f: Family, alone: f64) -> String {
         format!(
-            "{} lowers no held-out error alone (gain {alone:.2e} (°/h)²) but does beside {} \
+            "{} {ALONE_NO_GAIN} (gain {alone:.2e} (°/h)²) but does beside {} \
              (significant on its own, p = {:.3}; gain {:.2e} (°/h)², and {} lowers it beside \
              {} too): the next pass, with it in the model, asks for the other",
             f.name(),

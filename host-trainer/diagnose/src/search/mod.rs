@@ -41,6 +41,10 @@ pub(crate) use cache::ColumnCache;
 /// How the note on structure no term explains begins (a later pass' note is carried to the
 /// diagnosis by it).
 pub(crate) const UNEXPLAINED_LOOKS: &str = "what no library term explains looks like ";
+
+/// What the note on a finding named beside another family's term says after the family's
+/// name (carried from a later pass with its finding, whose other notes are not).
+pub(crate) const ALONE_NO_GAIN: &str = "lowers no held-out error alone";
 pub(crate) use step::step_times;
 
 /// Which pass of the search a run is.
