@@ -282,6 +282,9 @@ struct OncePerPass {
     /// White + B + rate random walk by REML on the baseline (`None` inside: REML puts no
     /// rate random walk in).
     slow_noise: Option<Option<NoiseParams>>,
+    /// The note on an aging whose drift beat the slow noise as a decay (see
+    /// `p_under_slow_noise`).
+    drift_note: Option<String>,
 }
 
 impl Judge<'_> {
@@ -593,6 +596,9 @@ impl Judge<'_> {
                     if let Some(b) = fit.beside {
                         out.notes.push(b.note(f, fit.gain));
                     }
+                    if f == Family::Aging {
+                        out.notes.extend(once.drift_note.take());
+                    }
                     if let Some(Term::Warmup { tau_s, .. }) = decay.map(|d| d.term) {
                         out.notes.push(format!(
                             "warmup's decay from power-on came out at the slowest τ a \
@@ -720,9 +726,10 @@ impl Judge<'_> {
                 .reml_noise(true)
                 .filter(|g| g.rrw_dph_per_rt_h > 0.0)
         });
-        let Some(g1) = g1.as_ref() else {
+        let Some(g1) = g1.clone() else {
             return Ok(None);
         };
+        let g1 = &g1;
         let draws = Draws {
             reps: self.opts.bootstrap,
             seed: self.opts.seed,
@@ -737,11 +744,20 @@ impl Judge<'_> {
                 &draws,
             ),
             None => {
-                let cols_of = |nl: &[f64]| {
+                let cols_of = |f: Family, nl: &[f64]| {
                     self.cache
                         .get_or_build(f, nl, || self.base.candidate_blocks(f, nl))
                 };
                 let nl = &self.scanned.points[i].nl;
+                let record_s = self.base.prep.nb() as f64 * self.base.block_s();
+                let slow_points = |of: &dyn Fn(Family) -> bool| {
+                    self.scanned
+                        .points
+                        .iter()
+                        .filter(|p| of(p.family) && slow_time_only(p.family, &p.nl, record_s))
+                        .map(|p| cols_of(p.family, &p.nl).map(|c| c.to_vec()))
+                        .collect::<Result<Vec<_>, _>>()
+                };
                 if f.is_thermal() {
                     // Every point of the family, its parameter chosen on each replicate; a
                     // thermal effect may stand beside slow noise, so the test is nested.
@@ -750,23 +766,60 @@ impl Judge<'_> {
                         .points
                         .iter()
                         .filter(|p| p.family == f)
-                        .map(|p| cols_of(&p.nl).map(|c| c.to_vec()))
+                        .map(|p| cols_of(f, &p.nl).map(|c| c.to_vec()))
                         .collect::<Result<Vec<_>, _>>()?;
                     best_p_beside_rrw(&record, g1, &shapes, &draws)
+                } else if f == Family::Aging {
+                    let p_line = p_under_rrw(&record, &cols_of(f, nl)?, g1, &draws);
+                    match p_line {
+                        Some(p) if p > self.opts.alpha => {
+                            // The drift may beat the slow noise as a decay where the line does
+                            // not (an aging that slows, like a logarithm or a square root):
+                            // where the record ranks the line before every decay, the decay's
+                            // own test, at its best point as when it is weighed, is the
+                            // drift's evidence, and aging names it.
+                            let dbic = &self.scanned.scan.dbic;
+                            let decay = self
+                                .scanned
+                                .points
+                                .iter()
+                                .enumerate()
+                                .filter(|(_, q)| q.family == Family::Warmup)
+                                .min_by(|a, b| dbic[a.0].total_cmp(&dbic[b.0]));
+                            let q = match decay {
+                                Some((w, q)) if dbic[w] > dbic[i] => best_p_under_rrw(
+                                    &record,
+                                    g1,
+                                    &cols_of(Family::Warmup, &q.nl)?,
+                                    &slow_points(&|g| g == Family::Warmup)?,
+                                    &draws,
+                                ),
+                                _ => None,
+                            };
+                            match q {
+                                Some(q) if q <= self.opts.alpha => {
+                                    once.drift_note = Some(format!(
+                                        "aging's straight line alone does not beat the \
+                                         record's noise refitted with rate random walk \
+                                         (p = {p:.3}), but a decay from power-on does \
+                                         (p = {q:.3}, its τ chosen on every replicate \
+                                         alike): the drift is real, and aging, ranked before \
+                                         warmup, names it"
+                                    ));
+                                    Some(q)
+                                }
+                                _ => Some(p),
+                            }
+                        }
+                        p => p,
+                    }
                 } else if nl.is_empty() {
-                    p_under_rrw(&record, &cols_of(nl)?, g1, &draws)
+                    p_under_rrw(&record, &cols_of(f, nl)?, g1, &draws)
                 } else {
-                    // The parameter (a warm-up's τ, a slow period) was chosen on the record:
-                    // it is chosen on every replicate too, among the family's slow points.
-                    let record_s = self.base.prep.nb() as f64 * self.base.block_s();
-                    let shapes = self
-                        .scanned
-                        .points
-                        .iter()
-                        .filter(|p| p.family == f && slow_time_only(f, &p.nl, record_s))
-                        .map(|p| cols_of(&p.nl).map(|c| c.to_vec()))
-                        .collect::<Result<Vec<_>, _>>()?;
-                    best_p_under_rrw(&record, g1, &cols_of(nl)?, &shapes, &draws)
+                    // The parameter (a slow period) was chosen on the record: it is chosen on
+                    // every replicate too, among the family's slow points.
+                    let shapes = slow_points(&|g| g == f)?;
+                    best_p_under_rrw(&record, g1, &cols_of(f, nl)?, &shapes, &draws)
                 }
             }
         })

@@ -1081,6 +1081,38 @@ fn an_effect_masked_by_a_second_is_credited_beside_it() {
     );
 }
 
+/// An aging that slows (here as the square root of time, seed 1, case 90 of the other
+/// shapes) beats the record's noise refitted with rate random walk as a decay from power-on,
+/// not as a straight line, while the record ranks the line before every decay: the decay's
+/// test alone named it `warmup`. With the decay's test as the drift's evidence, aging names
+/// it, and a note says so.
+#[test]
+fn an_aging_that_slows_is_named_aging_not_warmup() {
+    let model = PhysicsModel::paper();
+    let variant = Variant {
+        other_shapes: true,
+        ..Variant::default()
+    };
+    let case = build_case_in(90, Kind::Library(Family::Aging), 1, &model, variant).expect("case");
+    assert!(
+        matches!(case.hidden, Hidden::Shaped { .. }),
+        "{:?}",
+        case.hidden
+    );
+    let d = rlg_diagnose::diagnose(&case.recording, &model, &rlg_diagnose::Options::default())
+        .expect("diagnoses");
+    let found: Vec<&str> = d.findings.iter().map(|f| f.mechanism.name()).collect();
+    assert_eq!(found.first(), Some(&"aging"), "{:#?}", d.evidence);
+    assert!(
+        d.evidence
+            .notes
+            .iter()
+            .any(|n| n.starts_with("aging's straight line alone does not beat")),
+        "{:#?}",
+        d.evidence.notes
+    );
+}
+
 /// A coarse reading keeps the case's draw and rounds the reading to a 9- to 12-bit sensor's
 /// quantum (the bias is the twin's: the rate moves only through the noise's share of the
 /// changed amplitude, so the hidden term and its family are the twin's); a hidden
