@@ -816,8 +816,8 @@ impl Judge<'_> {
                 } else if nl.is_empty() {
                     p_under_rrw(&record, &cols_of(f, nl)?, g1, &draws)
                 } else {
-                    // The parameter (a slow period) was chosen on the record: it is chosen on
-                    // every replicate too, among the family's slow points.
+                    // The parameter (a warm-up's τ, a slow period) was chosen on the record:
+                    // it is chosen on every replicate too, among the family's slow points.
                     let shapes = slow_points(&|g| g == f)?;
                     best_p_under_rrw(&record, g1, &cols_of(f, nl)?, &shapes, &draws)
                 }
