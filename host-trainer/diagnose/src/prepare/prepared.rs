@@ -7,6 +7,7 @@ use std::borrow::Cow;
 use super::blocks::{block_samples, MAX_SAMPLES, MIN_BLOCKS};
 use super::bursts::{burst_means, find_bursts, Bursts};
 use super::columns::{baseline_specs, baseline_values};
+use super::dequantise::read_quantum;
 use super::drive::DriveSeries;
 use super::model::PhysicsModel;
 use super::rate::{estimate_rate, RATE_HALF_WIDTH_S};
@@ -45,6 +46,8 @@ pub struct Prepared {
     /// Set when the record was sampled in bursts and each burst reduced to its mean
     /// ([`find_bursts`]).
     pub bursts: Option<Bursts>,
+    /// The quantum the temperature is read at ([`read_quantum`]), where it is rounded.
+    pub temp_quantum_c: Option<f64>,
 }
 
 impl Prepared {
@@ -56,7 +59,10 @@ impl Prepared {
     /// The drive un-lagged by `tau_s` (see [`DriveSeries::unlagged`]), computed over the
     /// whole recording so the estimator's warm-up falls outside the fitted samples.
     pub fn drive_unlagged(&self, tau_s: f64) -> Result<DriveSeries, DiagnoseError> {
-        Ok(self.fitted_part(self.full_drive.unlagged(tau_s, self.dt_s)?))
+        Ok(self.fitted_part(
+            self.full_drive
+                .unlagged(tau_s, self.dt_s, self.temp_quantum_c)?,
+        ))
     }
 
     /// The fitted samples of a drive over the whole recording, cut in place: a month's
@@ -200,12 +206,14 @@ pub fn prepare_shifted<'a>(
     };
     rate_dph.truncate(r.end);
     rate_dph.drain(..r.start);
+    let temp_quantum_c = read_quantum(&temp_c);
     let full_drive = DriveSeries {
         t_s,
         temp_c,
         dtemp_c_per_s: rate_all,
     };
     Ok(Prepared {
+        temp_quantum_c,
         faults,
         bursts,
         full_drive,
@@ -243,10 +251,10 @@ pub fn model_drive<'a>(
     let full = match (tau, dequantised) {
         (None, None) => return Ok(Cow::Borrowed(&prep.drive)),
         (None, Some(d)) => d,
-        (Some(tau), d) => d
-            .as_ref()
-            .unwrap_or(&prep.full_drive)
-            .unlagged(tau, prep.dt_s)?,
+        (Some(tau), Some(d)) => d.unlagged(tau, prep.dt_s, None)?,
+        (Some(tau), None) => prep
+            .full_drive
+            .unlagged(tau, prep.dt_s, prep.temp_quantum_c)?,
     };
     Ok(Cow::Owned(prep.fitted_part(full)))
 }

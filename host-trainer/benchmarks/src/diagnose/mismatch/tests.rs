@@ -7,6 +7,7 @@ use super::noise::{log_spaced, NoiseDraw};
 use super::*;
 use crate::diagnose::{Label, PValues};
 use rlg_diagnose::prepare::prepare;
+use rlg_physics::Term;
 
 /// The same seed and case number give the same recording and conditions; another case
 /// number gives another draw.
@@ -1111,6 +1112,30 @@ fn an_aging_that_slows_is_named_aging_not_warmup() {
         "{:#?}",
         d.evidence.notes
     );
+}
+
+/// A sensor lag read at 0.01 °C with no reading noise (case 5 of seed 2: ramps between
+/// holds, D 9.4), which the previous column named `temp_quantization` with a gradient's lag
+/// after it: un-lagged by τ times the slope of the rounded steps, the reading carried its
+/// rounding into the lagging sensor's column as a lag of its own. With the slope of the
+/// de-quantised reading the sensor's lag is named first, with its τ within 20 %.
+#[test]
+fn a_lagging_sensor_read_rounded_is_named_sensor_lag() {
+    let model = PhysicsModel::paper();
+    let case = build_case(5, Kind::Library(Family::SensorLag), 2, &model).expect("case");
+    let Hidden::Library {
+        term: Term::SensorLag { tau_s },
+    } = case.hidden
+    else {
+        panic!("{:?}", case.hidden)
+    };
+    assert_eq!(case.conditions.temp_noise_c, 0.0);
+    let d = rlg_diagnose::diagnose(&case.recording, &model, &rlg_diagnose::Options::default())
+        .expect("diagnoses");
+    let f = d.findings.first().expect("a finding");
+    assert_eq!(f.mechanism.name(), "sensor_lag", "{:#?}", d.evidence);
+    let tau = f.parameters["tau_s"];
+    assert!((tau / tau_s - 1.0).abs() < 0.2, "tau {tau} against {tau_s}");
 }
 
 /// A coarse reading keeps the case's draw and rounds the reading to a 9- to 12-bit sensor's
