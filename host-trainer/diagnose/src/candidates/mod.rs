@@ -10,7 +10,7 @@ mod tests;
 
 use serde::{Deserialize, Serialize};
 
-use super::prepare::{read_quantum, Prepared};
+use super::prepare::Prepared;
 use rlg_physics::{Mechanism, Term};
 
 /// A family of candidate terms: one term of the physics library.
@@ -201,10 +201,7 @@ impl Family {
             // Scanned on the block variances instead (`super::variance`).
             Family::Heteroscedastic => Vec::new(),
             // Not scanned: the quantum is read from the recorded values.
-            Family::TempQuantization => read_quantum(&prep.full_drive.temp_c)
-                .map(|q| vec![q])
-                .into_iter()
-                .collect(),
+            Family::TempQuantization => prep.temp_quantum_c.map(|q| vec![q]).into_iter().collect(),
         }
     }
 
