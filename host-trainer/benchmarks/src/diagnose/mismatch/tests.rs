@@ -1115,10 +1115,10 @@ fn an_aging_that_slows_is_named_aging_not_warmup() {
 }
 
 /// A sensor lag read at 0.01 °C with no reading noise (case 5 of seed 2: ramps between
-/// holds, D 9.4), which the previous column named `temp_quantization` with a gradient's lag
-/// after it: un-lagged by τ times the slope of the rounded steps, the reading carried its
-/// rounding into the lagging sensor's column as a lag of its own. With the slope of the
-/// de-quantised reading the sensor's lag is named first, with its τ within 20 %.
+/// holds, D 9.4). Un-lagged by τ times the slope of the rounded steps, the reading would carry
+/// its rounding into the lagging sensor's column as a lag of its own, and `temp_quantization`
+/// ranks first; with the slope of the de-quantised reading the sensor's lag is named first,
+/// with its τ within 20 %.
 #[test]
 fn a_lagging_sensor_read_rounded_is_named_sensor_lag() {
     let model = PhysicsModel::paper();
