@@ -33,8 +33,8 @@ use crate::variance::VarianceTest;
 use crate::{BumpEvidence, CandidateScore, DiagnoseError, Figures, Options, StepEvidence};
 use rlg_simulate::noise::NoiseParams;
 
-/// The best point of each family (its index among the scan's points), most significant
-/// first. A node's lag is attributed only where the residual's dependence on the rate
+/// The best point of each family (its index among the scan's points), best fit first, the
+/// reading's quantisation before the families that fit better by less than strong evidence. A node's lag is attributed only where the residual's dependence on the rate
 /// follows the term's temperature ([`rate_alone`]): elsewhere the family's best point on
 /// the reading's own node stands for it, with a note where the lagged one would have been
 /// significant.
@@ -89,6 +89,21 @@ pub(super) fn best_points(
     // better (ordered on their tails, a family of few points, a gradient's lag, would take
     // a sensor's lag and a coarse reading's steps from the families that fit them).
     best.sort_by(|a, b| s.dbic[a.1].total_cmp(&s.dbic[b.1]));
+    // The reading's rounding is seen in the record (the family exists only where the
+    // reading's quantum is read from it); a family that fits about as well is inferred. So
+    // the quantisation goes before the families that fit better by less than strong evidence
+    // ([`crate::CLOSE_DELTA_BIC`]): on a staircase reading, a gradient's lag takes the
+    // rounding's spikes of dT/dt as well, and named first it was the record's only finding.
+    if let Some(k) = best.iter().position(|p| p.0 == Family::TempQuantization) {
+        let quantum = s.dbic[best[k].1];
+        if let Some(to) = best[..k]
+            .iter()
+            .position(|p| quantum - s.dbic[p.1] < crate::CLOSE_DELTA_BIC)
+        {
+            let q = best.remove(k);
+            best.insert(to, q);
+        }
+    }
     best
 }
 

@@ -1138,6 +1138,31 @@ fn a_lagging_sensor_read_rounded_is_named_sensor_lag() {
     assert!((tau / tau_s - 1.0).abs() < 0.2, "tau {tau} against {tau_s}");
 }
 
+/// A temperature reading rounded to 0.35 °C (case 7 of seed 3's `temp_quantization`, D 9.8).
+/// On its staircase a gradient's lag takes the rounding's spikes of dT/dt too, and fits the
+/// record about as well as the quantisation does; the rounding is seen in the reading, so the
+/// quantisation is named first, at the reading's quantum.
+#[test]
+fn a_rounded_reading_is_named_before_a_lag_that_fits_about_as_well() {
+    let model = PhysicsModel::paper();
+    let case = build_case(7, Kind::Library(Family::TempQuantization), 3, &model).expect("case");
+    let Hidden::Library {
+        term: Term::TempQuantization { step_c },
+    } = case.hidden
+    else {
+        panic!("{:?}", case.hidden)
+    };
+    let d = rlg_diagnose::diagnose(&case.recording, &model, &rlg_diagnose::Options::default())
+        .expect("diagnoses");
+    let f = d.findings.first().expect("a finding");
+    assert_eq!(f.mechanism.name(), "temp_quantization", "{:#?}", d.evidence);
+    let q = f.parameters["step_c"];
+    assert!(
+        (q / step_c - 1.0).abs() < 0.05,
+        "quantum {q} against {step_c}"
+    );
+}
+
 /// A coarse reading keeps the case's draw and rounds the reading to a 9- to 12-bit sensor's
 /// quantum (the bias is the twin's: the rate moves only through the noise's share of the
 /// changed amplitude, so the hidden term and its family are the twin's); a hidden
