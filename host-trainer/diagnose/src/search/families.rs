@@ -34,10 +34,10 @@ use crate::{BumpEvidence, CandidateScore, DiagnoseError, Figures, Options, StepE
 use rlg_simulate::noise::NoiseParams;
 
 /// The best point of each family (its index among the scan's points), best fit first, the
-/// reading's quantisation before the families that fit better by less than strong evidence. A node's lag is attributed only where the residual's dependence on the rate
-/// follows the term's temperature ([`rate_alone`]): elsewhere the family's best point on
-/// the reading's own node stands for it, with a note where the lagged one would have been
-/// significant.
+/// reading's quantisation before the families that fit better by less than strong evidence.
+/// A node's lag is attributed only where the residual's dependence on the rate follows the
+/// term's temperature ([`rate_alone`]): elsewhere the family's best point on the reading's
+/// own node stands for it, with a note where the lagged one would have been significant.
 pub(super) fn best_points(
     scanned: &Scanned<'_>,
     families: &[Family],
@@ -93,7 +93,7 @@ pub(super) fn best_points(
     // reading's quantum is read from it); a family that fits about as well is inferred. So
     // the quantisation goes before the families that fit better by less than strong evidence
     // ([`crate::CLOSE_DELTA_BIC`]): on a staircase reading, a gradient's lag takes the
-    // rounding's spikes of dT/dt as well, and named first it was the record's only finding.
+    // rounding's spikes of dT/dt as well, and named first it leaves the rounding unnamed.
     if let Some(k) = best.iter().position(|p| p.0 == Family::TempQuantization) {
         let quantum = s.dbic[best[k].1];
         if let Some(to) = best[..k]

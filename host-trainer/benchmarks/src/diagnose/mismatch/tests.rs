@@ -1138,7 +1138,7 @@ fn a_lagging_sensor_read_rounded_is_named_sensor_lag() {
     assert!((tau / tau_s - 1.0).abs() < 0.2, "tau {tau} against {tau_s}");
 }
 
-/// A temperature reading rounded to 0.35 °C (case 7 of seed 3's `temp_quantization`, D 9.8).
+/// A temperature reading rounded to 0.345 °C (case 7 of seed 3's `temp_quantization`, D 9.8).
 /// On its staircase a gradient's lag takes the rounding's spikes of dT/dt too, and fits the
 /// record about as well as the quantisation does; the rounding is seen in the reading, so the
 /// quantisation is named first, at the reading's quantum.
