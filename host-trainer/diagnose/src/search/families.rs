@@ -557,10 +557,18 @@ impl Judge<'_> {
         // time); it is tested beside that noise, not against it, among the family's scanned
         // points.
         let not_recurring = f.is_thermal() && fit.cycle_gain.is_some_and(|g| g <= 0.0);
+        // So must a thermal effect weighed after structure that fit the record better and did
+        // not beat that noise: the structure may be the record's slow noise, and a loop or a
+        // lag fitted over a cycle or two takes part of a drift (heating first, cooling later).
+        // Judged under white + B alone, it would name a mechanism for the part of the slow
+        // noise it fits.
+        let after_slow_drift = f.is_thermal() && !out.slow_drift.is_empty();
         let slow_check = separable
             && trusted
             && self.noise.without_slow_noise()
-            && (not_recurring || slow_time_only(f, &self.scanned.points[i].nl, record_s));
+            && (not_recurring
+                || after_slow_drift
+                || slow_time_only(f, &self.scanned.points[i].nl, record_s));
         let p_slow = if slow_check {
             self.p_under_slow_noise(f, i, step_pref.as_ref(), once)?
         } else {
