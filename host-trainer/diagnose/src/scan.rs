@@ -320,15 +320,27 @@ const TEMP_LEVELS: usize = 39;
 /// The parameters a window in temperature is charged: its height and its two edges.
 pub(crate) const TEMP_WINDOW_PARAMS: usize = 3;
 
+/// Widths of the generic structure test's windows in temperature, in level spacings: about
+/// 1.25 times the last, 5 % to a third of the range (wider, the baseline's polynomial and the
+/// temperature bands fit it).
+pub(crate) const GENERIC_TEMP_WIDTHS: &[usize] = &[2, 3, 4, 5, 6, 8, 10, 13];
+
+/// Widths of the bump put against a backscatter ripple or a mode hop (`search::bump`): the
+/// generic test's, two fifths and half the range. A ripple's lobe is half its period wide,
+/// its period fitted continuously; a bump of 1σ near a tenth of the range is wider than the
+/// generic test's widest window fits well (a correlation under 0.88), and a lobe then takes
+/// it unless a window as wide is put against the lobe. The generic test keeps its widths:
+/// there the wider windows are what the baseline's polynomial and the bands already fit.
+pub(crate) const BUMP_TEMP_WIDTHS: &[usize] = &[2, 3, 4, 5, 6, 8, 10, 13, 16, 20];
+
 /// The edges (°C) of the windows in temperature on a record whose block means span
-/// `lo..hi`: pairs of [`TEMP_LEVELS`] levels evenly spaced inside the range, widths of 2, 3,
-/// 4, 5, 6, 8, 10 and 13 level spacings (about 1.25 times the last, 5 % to a third of the
-/// range; wider, the baseline's polynomial and the temperature bands fit it), each width
-/// starting every third of itself and once more ending at the top level.
-fn temp_window_edges(lo: f64, hi: f64) -> Vec<(f64, f64)> {
+/// `lo..hi`: pairs of [`TEMP_LEVELS`] levels evenly spaced inside the range, `widths` level
+/// spacings apart, each width starting every third of itself and once more ending at the
+/// top level.
+fn temp_window_edges(lo: f64, hi: f64, widths: &[usize]) -> Vec<(f64, f64)> {
     let level = |k: usize| lo + (hi - lo) * (k + 1) as f64 / (TEMP_LEVELS + 1) as f64;
     let mut out = Vec::new();
-    for d in [2, 3, 4, 5, 6, 8, 10, 13] {
+    for &d in widths {
         let last = TEMP_LEVELS - 1 - d;
         let mut starts: Vec<usize> = (0..=last).step_by((d / 3).max(1)).collect();
         if starts.last() != Some(&last) {
@@ -351,12 +363,13 @@ fn raised_cosine(t: f64, (a, b): (f64, f64)) -> f64 {
     }
 }
 
-/// The windows in temperature of `prep`'s record ([`temp_window_edges`]): their edges (°C)
-/// and block columns, each the block mean of the per-sample window (a block of a 3 °C/min
-/// ramp spans 5 °C, which its mean temperature alone would put at one value). A window the
-/// record spends less than [`WINDOW_MIN_BLOCKS`] blocks inside is left out, for the same
-/// reason as a narrow window in time: a few blocks are fitted by a spike.
-pub(crate) fn temp_windows(prep: &Prepared) -> Vec<((f64, f64), Vec<f64>)> {
+/// The windows in temperature of `prep`'s record, `widths` level spacings wide
+/// ([`temp_window_edges`]): their edges (°C) and block columns, each the block mean of the
+/// per-sample window (a block of a 3 °C/min ramp spans 5 °C, which its mean temperature
+/// alone would put at one value). A window the record spends less than
+/// [`WINDOW_MIN_BLOCKS`] blocks inside is left out, for the same reason as a narrow window
+/// in time: a few blocks are fitted by a spike.
+pub(crate) fn temp_windows(prep: &Prepared, widths: &[usize]) -> Vec<((f64, f64), Vec<f64>)> {
     let (lo, hi) = prep
         .temp_b
         .iter()
@@ -366,7 +379,7 @@ pub(crate) fn temp_windows(prep: &Prepared) -> Vec<((f64, f64), Vec<f64>)> {
     if hi <= lo {
         return Vec::new();
     }
-    temp_window_edges(lo, hi)
+    temp_window_edges(lo, hi, widths)
         .into_iter()
         .filter(|(a, b)| {
             prep.temp_b.iter().filter(|t| (*a..*b).contains(*t)).count() >= WINDOW_MIN_BLOCKS
@@ -417,7 +430,7 @@ impl Generic {
                 prep.blocks(&r.iter().map(|v| (v / scale).powi(2)).collect::<Vec<f64>>()),
             ]);
         }
-        for ((a, b), col) in temp_windows(prep) {
+        for ((a, b), col) in temp_windows(prep, GENERIC_TEMP_WIDTHS) {
             shapes.push(Shape::TempWindow(a, b));
             cols.push(vec![col]);
         }
@@ -646,43 +659,74 @@ impl Scan {
 mod tests {
     use super::*;
 
-    /// Every window in temperature lies inside the range, from a twentieth to a third of it
-    /// wide; a Gaussian bump of 1σ from 2 % to 6 % of the range, centred anywhere in it at
-    /// least 2σ and a tenth of the range from either end, is matched by some window at ≥ 90 %
-    /// of its own fit's SNR (the correlation of the two over temperatures visited evenly).
-    #[test]
-    fn temperature_windows_match_every_smooth_bump_inside_the_range() {
-        let (lo, hi) = (-20.0, 60.0);
+    /// The best correlation of a Gaussian bump of 1σ `sigma` (a fraction of the range) with
+    /// a window of `edges` on `lo..hi`, over temperatures visited evenly, at its worst over
+    /// centres at least 2σ and a tenth of the range from either end.
+    fn worst_bump_match(edges: &[(f64, f64)], (lo, hi): (f64, f64), sigma: f64) -> f64 {
         let range = hi - lo;
-        let edges = temp_window_edges(lo, hi);
-        for &(a, b) in &edges {
-            assert!(lo < a && b < hi, "{a}..{b}");
-            let w = (b - a) / range;
-            assert!((0.049..0.34).contains(&w), "{a}..{b}: {w}");
-        }
         let grid: Vec<f64> = (0..4000).map(|k| lo + range * k as f64 / 3999.0).collect();
         let corr = |x: &[f64], y: &[f64]| {
             let d = |u: &[f64], v: &[f64]| u.iter().zip(v).map(|(p, q)| p * q).sum::<f64>();
             d(x, y) / (d(x, x) * d(y, y)).sqrt()
         };
-        for sigma in [0.02_f64, 0.03, 0.04, 0.05, 0.06] {
-            let margin = (2.0 * sigma).max(0.1);
-            for c in 0..=40 {
+        let wins: Vec<Vec<f64>> = edges
+            .iter()
+            .map(|&w| grid.iter().map(|t| raised_cosine(*t, w)).collect())
+            .collect();
+        let margin = (2.0 * sigma).max(0.1);
+        (0..=40)
+            .map(|c| {
                 let centre = lo + range * (margin + (1.0 - 2.0 * margin) * c as f64 / 40.0);
                 let bump: Vec<f64> = grid
                     .iter()
                     .map(|t| (-0.5 * ((t - centre) / (sigma * range)).powi(2)).exp())
                     .collect();
-                let best = edges
-                    .iter()
-                    .map(|&w| {
-                        let win: Vec<f64> = grid.iter().map(|t| raised_cosine(*t, w)).collect();
-                        corr(&bump, &win)
-                    })
-                    .fold(0.0, f64::max);
-                assert!(best >= 0.9, "σ {sigma}, centre {centre}: {best:.3}");
-            }
+                wins.iter().map(|w| corr(&bump, w)).fold(0.0, f64::max)
+            })
+            .fold(1.0, f64::min)
+    }
+
+    /// The windows of `widths` on `lo..hi`, each asserted inside the range and from a
+    /// twentieth of it to `max_share` of it wide.
+    fn windows_inside(widths: &[usize], (lo, hi): (f64, f64), max_share: f64) -> Vec<(f64, f64)> {
+        let edges = temp_window_edges(lo, hi, widths);
+        for &(a, b) in &edges {
+            assert!(lo < a && b < hi, "{a}..{b}");
+            let w = (b - a) / (hi - lo);
+            assert!((0.049..max_share).contains(&w), "{a}..{b}: {w}");
         }
+        edges
+    }
+
+    /// Every window in temperature of the generic test lies inside the range, from a
+    /// twentieth to a third of it wide; a Gaussian bump of 1σ from 2 % to 6 % of the range,
+    /// centred anywhere in it at least 2σ and a tenth of the range from either end, is
+    /// matched by some window at ≥ 90 % of its own fit's SNR (the correlation of the two
+    /// over temperatures visited evenly).
+    #[test]
+    fn temperature_windows_match_every_smooth_bump_inside_the_range() {
+        let (lo, hi) = (-20.0, 60.0);
+        let edges = windows_inside(GENERIC_TEMP_WIDTHS, (lo, hi), 0.34);
+        for sigma in [0.02_f64, 0.03, 0.04, 0.05, 0.06] {
+            let best = worst_bump_match(&edges, (lo, hi), sigma);
+            assert!(best >= 0.9, "σ {sigma}: {best:.3}");
+        }
+    }
+
+    /// The bump's windows reach half the range, and match a bump of 1σ up to a tenth of the
+    /// range at ≥ 90 % of its SNR, where the generic test's windows, a third of the range at
+    /// most, fall under 88 %.
+    #[test]
+    fn the_bumps_windows_match_bumps_as_wide_as_a_ripples_lobe() {
+        let (lo, hi) = (-20.0, 60.0);
+        let edges = windows_inside(BUMP_TEMP_WIDTHS, (lo, hi), 0.51);
+        let generic = temp_window_edges(lo, hi, GENERIC_TEMP_WIDTHS);
+        for sigma in [0.02_f64, 0.04, 0.06, 0.08, 0.1] {
+            let best = worst_bump_match(&edges, (lo, hi), sigma);
+            assert!(best >= 0.9, "σ {sigma}: {best:.3}");
+        }
+        let narrow = worst_bump_match(&generic, (lo, hi), 0.1);
+        assert!(narrow < 0.88, "generic windows at σ 0.1: {narrow:.3}");
     }
 
     /// Every smooth window lies inside the record, from the narrowest to 3/5 of the record

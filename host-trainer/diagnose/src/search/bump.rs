@@ -6,7 +6,7 @@
 
 use crate::candidates::Family;
 use crate::prepare::Prepared;
-use crate::scan::{temp_windows, Scanned, TEMP_WINDOW_PARAMS};
+use crate::scan::{temp_windows, Scanned, BUMP_TEMP_WIDTHS, TEMP_WINDOW_PARAMS};
 use crate::BumpEvidence;
 
 use super::step::{instead, Against, Placements};
@@ -21,7 +21,7 @@ pub(super) struct BumpScan {
 impl BumpScan {
     fn new(scanned: &Scanned<'_>, prep: &Prepared) -> Option<Self> {
         let (edges_c, raw): (Vec<(f64, f64)>, Vec<Vec<f64>>) =
-            temp_windows(prep).into_iter().unzip();
+            temp_windows(prep, BUMP_TEMP_WIDTHS).into_iter().unzip();
         if raw.is_empty() {
             return None;
         }
@@ -49,7 +49,8 @@ const BUMP_SEED: u64 = 0xb0b5;
 /// `Some(bump)` when the family of the scan's point `i` is a backscatter ripple or a mode
 /// hop and the record is better explained by a bump at one temperature than by that family
 /// ([`instead`], the bump's edges searched over the windows in temperature of the generic
-/// structure test). The windows are made once per pass, in `cached`.
+/// structure test and wider ones, [`BUMP_TEMP_WIDTHS`]). The windows are made once per pass,
+/// in `cached`.
 pub(super) fn bump_instead(
     on: &Against<'_>,
     i: usize,

@@ -1420,3 +1420,39 @@ fn a_loop_weighed_after_slow_drift_must_beat_the_records_slow_noise() {
         );
     }
 }
+
+/// A bump at one temperature of 1σ 2.7 °C on a day/night sine over −38…−9 °C (seed 1, case
+/// 236 of the outside-library kinds, D 8.1): wider than the generic test's windows fit well,
+/// so a backscatter lobe fitted it better than any of them. Against a window as wide as the
+/// bump (two fifths of the range or more) the ripple loses: the structure is not attributed,
+/// and the bump's window holds the hidden bump's centre.
+#[test]
+fn a_bump_in_temperature_as_wide_as_a_ripples_lobe_is_not_named_as_the_ripple() {
+    let model = PhysicsModel::paper();
+    let opts = rlg_diagnose::Options::default();
+    let case = build_case(236, Kind::BumpInTemperature, 1, &model).expect("case");
+    let d = rlg_diagnose::diagnose(&case.recording, &model, &opts).expect("diagnoses");
+    assert!(d.findings.is_empty(), "{:#?}", d.findings);
+    assert_eq!(d.verdict, rlg_diagnose::Verdict::UnexplainedStructure);
+    let bump = d.evidence.bump.as_ref().expect("a bump preferred");
+    assert_eq!(bump.instead_of.name(), "backscatter", "{bump:?}");
+    assert!(bump.p_under_family < bump.p_under_bump, "{bump:?}");
+    let (lo, hi) = case
+        .recording
+        .temp_c
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), t| {
+            (a.min(*t), b.max(*t))
+        });
+    assert!(
+        bump.hi_c - bump.lo_c > (hi - lo) / 3.0,
+        "{bump:?} on {lo}..{hi}"
+    );
+    let Hidden::BumpInTemperature { centre_c, .. } = case.hidden else {
+        panic!("{:?}", case.hidden)
+    };
+    assert!(
+        (bump.lo_c..bump.hi_c).contains(&centre_c),
+        "{bump:?}: {centre_c}"
+    );
+}
